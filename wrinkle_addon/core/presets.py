@@ -1,0 +1,144 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Zhang 2005 Fig. 1 muscle layout from a few facial landmarks, and the §3 expressions.
+
+All coordinates are the face's local space with the face looking toward -Y and
+Z up (Blender's front view); the character's left is +X.  The layout only
+fixes each muscle's end points in the (x, z) plane of the face; the caller
+projects them onto the skin (a ray cast from the front) so the muscles sit on
+the surface of any head.
+
+Landmarks, all of the character's left side except the midline ones:
+``hairline_center, glabella, brow_outer_L, eye_L, nose_tip, mouth_corner_L,
+chin, cheekbone_L``.  The right side is mirrored about the plane through the
+glabella.
+"""
+
+import numpy as np
+
+LANDMARKS = (
+    ("hairline_center", "Hairline", "Middle of the hairline, where the forehead ends"),
+    ("glabella", "Glabella", "Between the eyebrows, on the midline"),
+    ("brow_outer_L", "Brow Outer (left)", "Outer end of the character's left eyebrow"),
+    ("eye_L", "Eye (left)", "Centre of the character's left eye"),
+    ("nose_tip", "Nose Tip", "Tip of the nose"),
+    ("mouth_corner_L", "Mouth Corner (left)", "Corner of the mouth on the character's left"),
+    ("chin", "Chin", "Front of the chin, on the midline"),
+    ("cheekbone_L", "Cheekbone (left)", "Most prominent point of the left cheekbone"),
+)
+
+# (role, display name, type)
+MUSCLES = (
+    ("FRONTALIS_INNER", "Frontalis Inner", "SHEET"),
+    ("FRONTALIS_MAJOR", "Frontalis Major", "SHEET"),
+    ("FRONTALIS_OUTER", "Frontalis Outer", "SHEET"),
+    ("CORRUGATOR", "Corrugator Supercilii", "LINEAR"),
+    ("NASALIS", "Nasalis", "LINEAR"),
+    ("ZYGOMATICUS_MINOR", "Zygomaticus Minor", "LINEAR"),
+    ("ZYGOMATICUS_MAJOR", "Zygomaticus Major", "LINEAR"),
+    ("RISORIUS", "Risorius", "LINEAR"),
+    ("DEPRESSOR_ANGULI", "Depressor Anguli Oris", "LINEAR"),
+    ("MENTALIS", "Mentalis", "LINEAR"),
+)
+
+# Zhang §3: which muscles each expression contracts, and how much.
+EXPRESSIONS = {
+    "NEUTRAL": {},
+    "SURPRISE": {"FRONTALIS_INNER": 1.0, "FRONTALIS_MAJOR": 1.0, "FRONTALIS_OUTER": 0.8},
+    "FROWN": {"CORRUGATOR": 1.0},
+    "FEAR": {"FRONTALIS_INNER": 1.0, "CORRUGATOR": 0.8},
+}
+
+# Parameters per role that differ from the defaults (lambda_w, n_wrinkles, angle in degrees).
+ROLE_PARAMS = {
+    "FRONTALIS_INNER": {"lambda_w": 0.3, "n_wrinkles": 4},
+    "FRONTALIS_MAJOR": {"lambda_w": 0.3, "n_wrinkles": 4},
+    "FRONTALIS_OUTER": {"lambda_w": 0.3, "n_wrinkles": 4},
+    "CORRUGATOR": {"lambda_w": 0.1, "n_wrinkles": 2, "angle": 30.0},
+    "NASALIS": {"lambda_w": 0.3, "n_wrinkles": 3, "angle": 30.0},
+    "ZYGOMATICUS_MINOR": {"lambda_w": 0.5, "n_wrinkles": 2},
+    "ZYGOMATICUS_MAJOR": {"lambda_w": 0.5, "n_wrinkles": 2},
+    "RISORIUS": {"lambda_w": 0.5, "n_wrinkles": 2},
+    "DEPRESSOR_ANGULI": {"lambda_w": 0.5, "n_wrinkles": 2},
+    "MENTALIS": {"lambda_w": 0.2, "n_wrinkles": 3, "angle": 40.0},
+}
+
+
+def estimate_landmarks(bbox_min, bbox_max):
+    """Rough landmark guesses from the bounding box of a head (the artist confirms them)."""
+    lo, hi = np.asarray(bbox_min, float), np.asarray(bbox_max, float)
+    cx, w = 0.5 * (lo[0] + hi[0]), hi[0] - lo[0]
+    z0, h = lo[2], hi[2] - lo[2]
+
+    def p(dx, fz):
+        return np.array([cx + dx * w, lo[1], z0 + fz * h])
+
+    return {
+        "hairline_center": p(0.0, 0.86),
+        "glabella": p(0.0, 0.66),
+        "brow_outer_L": p(0.30, 0.67),
+        "eye_L": p(0.20, 0.61),
+        "nose_tip": p(0.0, 0.47),
+        "mouth_corner_L": p(0.15, 0.33),
+        "chin": p(0.0, 0.20),
+        "cheekbone_L": p(0.27, 0.50),
+    }
+
+
+def layout(landmarks):
+    """End points in the (x, z) plane for every muscle and side.
+
+    Returns a list of ``(role, side, kind, points)`` where ``points`` is an
+    (n, 2) array of (x, z): ``[m_A, m_I]`` for linear muscles and
+    ``[m_A1, m_A2, m_I2, m_I1]`` for sheets.  Side ``'L'`` is +X.
+    """
+    lm = {k: np.asarray(v, float)[[0, 2]] for k, v in landmarks.items()}
+    g, bo, eye = lm["glabella"], lm["brow_outer_L"], lm["eye_L"]
+    nose, mouth, chin = lm["nose_tip"], lm["mouth_corner_L"], lm["chin"]
+    hair, cheek = lm["hairline_center"], lm["cheekbone_L"]
+    bw = abs(bo[0] - g[0])  # half brow width
+    sign = 1.0 if bo[0] >= g[0] else -1.0
+
+    def x(f):
+        return g[0] + sign * f * bw
+
+    def brow_z(f):  # a gently arched brow line from the glabella to the outer brow
+        return g[1] + (bo[1] - g[1]) * f + 0.12 * bw * np.sin(np.pi * min(f, 1.0))
+
+    def hair_z(f):  # hairline recedes a little toward the temples
+        return hair[1] - 0.15 * (hair[1] - g[1]) * f * f
+
+    def sheet(f0, f1):
+        above = 0.08 * (hair[1] - g[1])  # insertion just above the brow hairs
+        return [(x(f0), hair_z(f0)), (x(f1), hair_z(f1)),
+                (x(f1), brow_z(f1) + above), (x(f0), brow_z(f0) + above)]
+
+    ey = eye[1]
+    mid = abs(mouth[0] - g[0])
+    out = {
+        "FRONTALIS_INNER": sheet(0.06, 0.40),
+        "FRONTALIS_MAJOR": sheet(0.40, 0.72),
+        "FRONTALIS_OUTER": sheet(0.72, 1.02),
+        "CORRUGATOR": [(x(0.10), g[1] - 0.05 * (g[1] - ey)), (x(0.55), brow_z(0.55) + 0.04 * bw)],
+        "NASALIS": [(x(0.30), nose[1] + 0.25 * (ey - nose[1])), (x(0.06), ey - 0.05 * (ey - nose[1]))],
+        "ZYGOMATICUS_MINOR": [
+            (cheek[0] - sign * 0.25 * bw, cheek[1] - 0.1 * (ey - nose[1])),
+            (g[0] + sign * 0.75 * mid, mouth[1] + 0.45 * (nose[1] - mouth[1])),
+        ],
+        "ZYGOMATICUS_MAJOR": [(cheek[0] + sign * 0.15 * bw, cheek[1]), (mouth[0], mouth[1])],
+        "RISORIUS": [(mouth[0] + sign * 1.1 * mid, mouth[1] + 0.1 * (nose[1] - mouth[1])),
+                     (mouth[0], mouth[1])],
+        "DEPRESSOR_ANGULI": [(mouth[0] + sign * 0.25 * mid, chin[1] + 0.1 * (mouth[1] - chin[1])),
+                             (mouth[0], mouth[1])],
+        "MENTALIS": [(g[0] + sign * 0.3 * mid, mouth[1] - 0.35 * (mouth[1] - chin[1])),
+                     (g[0] + sign * 0.3 * mid, chin[1] + 0.05 * (mouth[1] - chin[1]))],
+    }
+    result = []
+    for role, _name, kind in MUSCLES:
+        pts = np.array(out[role], float)
+        result.append((role, "L", kind, pts))
+        mirrored = pts.copy()
+        mirrored[:, 0] = 2.0 * g[0] - mirrored[:, 0]
+        if kind == "SHEET":  # keep the winding: swap the two ends of each line
+            mirrored = mirrored[[1, 0, 3, 2]]
+        result.append((role, "R", kind, mirrored))
+    return result

@@ -1,0 +1,155 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Muscle objects: small wire meshes whose vertices are the muscle's end points.
+
+* Linear muscle: 2 vertices, ``[m_A, m_I]`` (attachment, insertion).
+* Sheet muscle: 4 vertices, ``[m_A1, m_A2, m_I2, m_I1]`` drawn as a quad.
+
+The artist moves, rotates and scales the object with the normal tools, or
+edits single end points in Edit Mode.  They never render.
+"""
+
+import bpy
+import numpy as np
+from mathutils import Matrix, Vector
+
+from .core.muscles import LINEAR, SHEET, Muscle
+
+COLLECTION_NAME = "Wrinkle Muscles"
+
+
+def world_points(ob):
+    me = ob.data
+    co = np.empty(len(me.vertices) * 3, dtype=np.float64)
+    me.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    mw = np.array(ob.matrix_world, dtype=np.float64)
+    return co @ mw[:3, :3].T + mw[:3, 3]
+
+
+def face_scale(face):
+    """Mean scale of the face object: converts world lengths to its local space."""
+    det = abs(np.linalg.det(np.array(face.matrix_world, dtype=np.float64)[:3, :3]))
+    return float(det ** (1.0 / 3.0)) if det > 1e-30 else 1.0
+
+
+def to_core(muscle_ob, face):
+    """The muscle in the face's local space, as a :class:`core.muscles.Muscle`."""
+    s = muscle_ob.wrinkle_muscle
+    pts = world_points(muscle_ob)
+    inv = np.array(face.matrix_world.inverted_safe(), dtype=np.float64)
+    pts = pts @ inv[:3, :3].T + inv[:3, 3]
+    scale = face_scale(face)
+    if s.kind == "SHEET":
+        if len(pts) < 4:
+            pts = np.zeros((4, 3))
+        attachment, insertion = pts[[0, 1]], pts[[3, 2]]
+        kind, length, spread, spread_c = SHEET, s.length / scale, s.width / scale, s.width_c / scale
+    else:
+        if len(pts) < 2:
+            pts = np.zeros((2, 3))
+        attachment, insertion = pts[[0]], pts[[1]]
+        kind, length, spread, spread_c = LINEAR, s.radius / scale, s.angle, s.angle_c
+    return Muscle(
+        kind=kind, attachment=attachment, insertion=insertion, length=length, spread=spread,
+        spread_c=spread_c, lambda_w=s.lambda_w, n_wrinkles=s.n_wrinkles, k0=s.k0 / scale,
+        alpha=s.alpha, pull=s.pull, depth=s.depth / scale, wrinkles_only=s.wrinkles_only,
+        fade_ends=s.fade_ends,
+    )
+
+
+def signature(muscle_ob):
+    """Everything static about a muscle, to detect when the cached plan is stale."""
+    s = muscle_ob.wrinkle_muscle
+    return (
+        muscle_ob.name, s.kind, tuple(world_points(muscle_ob).round(9).ravel()),
+        s.radius, s.angle, s.angle_c, s.length, s.width, s.width_c, s.depth, s.lambda_w,
+        s.n_wrinkles, s.k0, s.alpha, s.pull, s.wrinkles_only, s.fade_ends,
+    )
+
+
+def muscle_collection(scene):
+    coll = bpy.data.collections.get(COLLECTION_NAME)
+    if coll is None or coll.library is not None:
+        coll = bpy.data.collections.new(COLLECTION_NAME)
+    if coll.name not in scene.collection.children:
+        scene.collection.children.link(coll)
+    return coll
+
+
+def create(context, face, kind, points, name=None, **params):
+    """Create a muscle object from world-space end points and register it on ``face``.
+
+    ``points`` is ``[attachment, insertion]`` for a linear muscle and
+    ``[m_A1, m_A2, m_I2, m_I1]`` for a sheet.  The object's origin is the
+    attachment (its centre for a sheet), so rotating and scaling it behaves
+    naturally.  Unset parameters get defaults sized from the muscle itself.
+    """
+    pts = [Vector(p) for p in points]
+    origin = pts[0] if kind == "LINEAR" else (pts[0] + pts[1]) / 2
+    name = name or ("Muscle" if kind == "LINEAR" else "Sheet Muscle")
+    me = bpy.data.meshes.new(name)
+    local = [p - origin for p in pts]
+    edges = [(0, 1)] if kind == "LINEAR" else [(0, 1), (1, 2), (2, 3), (3, 0)]
+    me.from_pydata([tuple(p) for p in local], edges, [])
+    ob = bpy.data.objects.new(name, me)
+    ob.matrix_world = Matrix.Translation(origin)
+    ob.display_type = "WIRE"
+    ob.show_in_front = True
+    ob.hide_render = True
+    muscle_collection(context.scene).objects.link(ob)
+    s = ob.wrinkle_muscle
+    s.is_muscle = True
+    s.kind = kind
+    _size_defaults(s, kind, pts)
+    for key, value in params.items():
+        setattr(s, key, value)
+    if face is not None:
+        face.wrinkles.muscles.add().object = ob
+        if face.type == "MESH":
+            ob.parent = face
+            ob.matrix_parent_inverse = face.matrix_world.inverted()
+    return ob
+
+
+def _size_defaults(s, kind, pts):
+    """Defaults that give a visible result the first time, scaled to the muscle's size."""
+    if kind == "LINEAR":
+        span = (pts[1] - pts[0]).length
+        s.radius = 1.3 * span
+        reach = s.radius
+    else:
+        a_c, i_c = (pts[0] + pts[1]) / 2, (pts[2] + pts[3]) / 2
+        span = (i_c - a_c).length
+        s.length = 1.15 * span
+        s.width = 0.5 * ((pts[1] - pts[0]).length + (pts[2] - pts[3]).length)
+        s.width_c = 0.3 * s.width
+        s.depth = 0.5 * max(s.width, span)
+        reach = s.length
+    u = (1.0 - s.lambda_w) * reach / (2.0 * max(s.n_wrinkles, 1))
+    s.k0 = 0.25 * u
+
+
+def linear_points_at(location, direction, length):
+    d = Vector(direction).normalized()
+    return [Vector(location), Vector(location) + d * length]
+
+
+def sheet_points_at(location, up, across, length, width):
+    up, across = Vector(up).normalized(), Vector(across).normalized()
+    a_c = Vector(location) + up * length * 0.5
+    i_c = Vector(location) - up * length * 0.5
+    half = across * width * 0.5
+    return [a_c - half, a_c + half, i_c + half, i_c - half]
+
+
+def live_muscles(face):
+    """The face's muscle objects that still exist in a scene (deleted ones are skipped)."""
+    out = []
+    for ref in face.wrinkles.muscles:
+        ob = ref.object
+        if ob is None or ob.type != "MESH" or not ob.wrinkle_muscle.is_muscle:
+            continue
+        if not ob.users_scene:
+            continue
+        out.append(ob)
+    return out

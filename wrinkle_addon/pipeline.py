@@ -1,0 +1,270 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The per-frame evaluator: one per face object, run from a ``frame_change_post`` handler.
+
+Per frame, for every face with wrinkles enabled:
+
+1. read the deformed skin ``wrinkle_skin`` from the evaluated mesh (shape keys,
+   armature and other deformers, before our own offset - no feedback);
+2. rebuild the cached static plan only if the topology, the rest positions or
+   a muscle's geometry or parameters changed (compared by signature, so undo,
+   drivers and animated parameters are all handled);
+3. evaluate the muscles in NumPy (``core.system.evaluate``);
+4. write the offsets once with ``foreach_set`` and tag the mesh.
+
+No ``bpy`` object is held between calls: the cache holds NumPy arrays keyed by
+``Object.session_uid``, and every call looks the objects up again, so undo,
+file reload, deleted muscles and Edit Mode topology changes cannot leave a
+dangling reference.  Handlers never raise: problems become a status message
+shown in the panel.
+"""
+
+import bpy
+import numpy as np
+from bpy.app.handlers import persistent
+
+from . import meshio, muscle_objects, stage
+from .core import mesh as core_mesh
+from .core import system
+
+_cache = {}  # session_uid -> _FaceState
+_status = {}  # session_uid -> message for the panel
+
+
+class _FaceState:
+    __slots__ = ("key", "edges", "tris", "rest", "sigs", "plan", "out", "skin", "last_inputs")
+
+    def __init__(self):
+        self.key = None
+        self.sigs = None
+        self.plan = None
+        self.last_inputs = None
+
+
+def status(ob):
+    return _status.get(ob.session_uid, "")
+
+
+def _set_status(ob, message):
+    if message:
+        _status[ob.session_uid] = message
+    else:
+        _status.pop(ob.session_uid, None)
+
+
+def check_face(ob):
+    """Why wrinkles cannot run on ``ob``, or ``None``.  Used by operators and the handler."""
+    if ob is None:
+        return "No active object"
+    if ob.type != "MESH":
+        return f'"{ob.name}" is a {ob.type.lower()}, not a mesh: wrinkles need a face mesh'
+    if ob.wrinkle_muscle.is_muscle:
+        return f'"{ob.name}" is a muscle, not a face'
+    if ob.library is not None or ob.data.library is not None:
+        lib = (ob.library or ob.data.library).filepath
+        return f'"{ob.name}" is linked from {lib} and is read-only: make it local or use a library override'
+    if ob.override_library is not None and ob.data.library is not None:
+        return f'The mesh of "{ob.name}" is linked and read-only: override or make it local'
+    if len(ob.data.polygons) == 0:
+        return f'"{ob.name}" has no faces: wrinkles need a surface'
+    return None
+
+
+def _topology(state, me):
+    key = meshio.topology_key(me)
+    rest = meshio.read_vectors(me, "position")
+    if state.key == key and np.array_equal(rest, state.rest):
+        return False
+    edges = meshio.read_edges(me)
+    corner, starts, sizes = meshio.read_polygons(me)
+    state.key = key
+    state.rest = rest
+    state.edges = edges
+    state.tris = core_mesh.fan_triangles(corner, starts, sizes)
+    state.out = np.zeros((len(rest), 3), dtype=np.float32)
+    state.skin = np.empty((len(rest), 3), dtype=np.float32)
+    state.plan = None
+    return True
+
+
+def _plan(state, face, muscles):
+    sigs = (tuple(np.array(face.matrix_world).ravel()),) + tuple(
+        muscle_objects.signature(m) for m in muscles)
+    if state.plan is not None and sigs == state.sigs:
+        return state.plan
+    core_muscles = [muscle_objects.to_core(m, face) for m in muscles]
+    state.plan = system.build_plan(state.rest, state.edges, state.tris, core_muscles)
+    state.sigs = sigs
+    state.out[:] = 0.0
+    state.last_inputs = None
+    return state.plan
+
+
+def update_face(ob, depsgraph, only_if_changed=False):
+    """Evaluate and write one face's wrinkles.  Returns True when it wrote new offsets."""
+    uid = ob.session_uid
+    why = check_face(ob)
+    if why:
+        _set_status(ob, why)
+        return False
+    if ob.mode == "EDIT":
+        _set_status(ob, "Paused in Edit Mode")
+        return False
+    mod = stage.find_modifier(ob)
+    if mod is None:
+        _set_status(ob, "The Wrinkles modifier is missing: switch wrinkles off and on again")
+        return False
+    me = ob.data
+    if me.attributes.get(stage.OFFSET_ATTR) is None:
+        stage.ensure_offset_attribute(me)
+    ev = ob.evaluated_get(depsgraph).data
+    skin_att = ev.attributes.get(stage.SKIN_ATTR)
+    if skin_att is None:
+        _set_status(ob, "The Wrinkles modifier is disabled or not evaluated")
+        return False
+    why = stage.order_problem(ob, mod, len(ev.vertices))
+    if why:
+        _set_status(ob, why)
+        return False
+
+    state = _cache.get(uid)
+    if state is None:
+        state = _cache[uid] = _FaceState()
+    _topology(state, me)
+    muscles = muscle_objects.live_muscles(ob)
+    plan = _plan(state, ob, muscles)
+    skin = meshio.read_vector_prefix(ev, stage.SKIN_ATTR, len(me.vertices), state.skin)
+    contraction = np.array([m.wrinkle_muscle.contraction for m in muscles], dtype=np.float64)
+    strength = ob.wrinkles.strength
+    if only_if_changed and state.last_inputs is not None:
+        old_skin, old_c, old_s = state.last_inputs
+        if old_s == strength and np.array_equal(old_c, contraction) and np.array_equal(old_skin, skin):
+            return False
+    out = system.evaluate(plan, skin, contraction, strength, out=state.out)
+    meshio.write_vectors(me, stage.OFFSET_ATTR, out)
+    me.update_tag()
+    state.last_inputs = (skin.copy(), contraction, strength)
+    problems = [f'"{muscles[i].name}": {msg}' for i, msg in plan.problems]
+    _set_status(ob, "Muscle without effect: " + "; ".join(problems) if problems else "")
+    return True
+
+
+def enabled_faces(scene):
+    return [ob for ob in scene.objects if ob.type == "MESH" and ob.wrinkles.enabled]
+
+
+def update_scene(scene, depsgraph, only_if_changed=False):
+    for ob in enabled_faces(scene):
+        try:
+            update_face(ob, depsgraph, only_if_changed)
+        except Exception as exc:  # a handler must never raise into Blender
+            _set_status(ob, f"Internal error, wrinkles skipped: {exc!r}")
+            print(f"Expression Wrinkles: {ob.name}: {exc!r}")
+
+
+def _rendering():
+    running = getattr(bpy.app, "is_job_running", None)
+    return bool(running and running("RENDER"))
+
+
+_in_frame_sync = False
+
+
+def _current_depsgraph(scene):
+    """The context's evaluated depsgraph, brought to the scene's current frame.
+
+    Measured on bpy 4.5 and 5.2: on the FIRST frame of ``render(animation=True)``
+    started from another frame, the context's depsgraph is still at the old
+    frame (its ``scene_eval.frame_current`` lags), so the skin read from it and
+    the original shape-key values the render re-evaluates with are both stale.
+    Setting the frame again evaluates it; our handler skips the nested call.
+    """
+    global _in_frame_sync
+    dg = bpy.context.evaluated_depsgraph_get()
+    if dg.scene_eval.frame_current != scene.frame_current and not _in_frame_sync:
+        _in_frame_sync = True
+        try:
+            scene.frame_set(scene.frame_current, subframe=scene.frame_subframe)
+        finally:
+            _in_frame_sync = False
+        dg = bpy.context.evaluated_depsgraph_get()
+    return dg
+
+
+@persistent
+def on_frame_change_post(scene, depsgraph=None):
+    # Read through the context's depsgraph: the handler's argument drops other animated
+    # shape keys during render(animation=True) (BLENDER_NOTES.md, "Handlers").
+    if _in_frame_sync:
+        return
+    update_scene(scene, _current_depsgraph(scene))
+
+
+@persistent
+def on_depsgraph_update_post(scene, depsgraph=None):
+    # Interactive edits only (a shape key slider, a muscle moved): renders and background
+    # jobs are driven by frame changes.  Unchanged inputs write nothing, so our own
+    # write does not loop.
+    if bpy.app.background or _rendering():
+        return
+    update_scene(scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
+
+
+@persistent
+def on_load_post(*_args):
+    _cache.clear()
+    _status.clear()
+
+
+def refresh_all(context):
+    """Re-evaluate after a property change (not while rendering)."""
+    if context is None or context.scene is None or _rendering():
+        return
+    update_scene(context.scene, context.evaluated_depsgraph_get())
+
+
+def enable(ob, scene):
+    """Add the output stage and switch wrinkles on.  Raises ``stage.StageError``."""
+    why = check_face(ob)
+    if why:
+        raise stage.StageError(why)
+    stage.ensure_modifier(ob)
+    scene.render.use_lock_interface = True
+
+
+def disable(ob):
+    """Remove the output stage: the mesh and its shape keys are exactly as before."""
+    stage.remove(ob)
+    _cache.pop(ob.session_uid, None)
+    _status.pop(ob.session_uid, None)
+
+
+def on_enabled_changed(ob, context):
+    try:
+        if ob.wrinkles.enabled:
+            enable(ob, context.scene)
+            refresh_all(context)
+        else:
+            disable(ob)
+    except stage.StageError as exc:
+        _set_status(ob, str(exc))
+
+
+_HANDLERS = (
+    (bpy.app.handlers.frame_change_post, on_frame_change_post),
+    (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update_post),
+    (bpy.app.handlers.load_post, on_load_post),
+)
+
+
+def register():
+    for handlers, fn in _HANDLERS:
+        if fn not in handlers:
+            handlers.append(fn)
+
+
+def unregister():
+    for handlers, fn in _HANDLERS:
+        while fn in handlers:
+            handlers.remove(fn)
+    _cache.clear()
+    _status.clear()

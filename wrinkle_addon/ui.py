@@ -1,0 +1,136 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The "Wrinkles" sidebar tab: one panel for the face, one for the active muscle."""
+
+import bpy
+
+from . import pipeline
+
+
+def _face(context):
+    ob = context.active_object
+    if ob is not None and ob.wrinkle_muscle.is_muscle:
+        return ob.parent if ob.parent is not None and ob.parent.type == "MESH" else None
+    return ob if ob is not None and ob.type == "MESH" else None
+
+
+class WRINKLE_UL_muscles(bpy.types.UIList):
+    bl_idname = "WRINKLE_UL_muscles"
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
+        ob = item.object
+        if ob is None or not ob.users_scene:
+            layout.label(text="(deleted muscle)", icon="ERROR")
+            return
+        s = ob.wrinkle_muscle
+        row = layout.row(align=True)
+        row.prop(ob, "name", text="", emboss=False,
+                 icon="MOD_LATTICE" if s.kind == "SHEET" else "FORCE_CURVE")
+        row.prop(s, "contraction", text="")
+        row.prop(s, "wrinkles_only", text="", icon="MOD_OCEAN")
+
+
+class VIEW3D_PT_wrinkle_face(bpy.types.Panel):
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Wrinkles"
+    bl_label = "Face Wrinkles"
+
+    @classmethod
+    def poll(cls, context):
+        return _face(context) is not None
+
+    def draw(self, context):
+        layout = self.layout
+        face = _face(context)
+        s = face.wrinkles
+        layout.label(text=face.name, icon="OBJECT_DATA")
+        if s.enabled:
+            layout.operator("wrinkle.disable", icon="CANCEL")
+        else:
+            layout.operator("wrinkle.enable", icon="CHECKMARK")
+        msg = pipeline.status(face)
+        if msg:
+            box = layout.box()
+            for i, line in enumerate(_wrap(msg, 48)):
+                box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+        layout.prop(s, "strength")
+        layout.label(text="Muscles")
+        row = layout.row()
+        row.template_list("WRINKLE_UL_muscles", "", s, "muscles", s, "active_muscle", rows=4)
+        col = row.column(align=True)
+        col.operator("wrinkle.add_muscle", icon="ADD", text="").kind = "LINEAR"
+        col.operator("wrinkle.remove_muscle", icon="REMOVE", text="")
+        row = layout.row(align=True)
+        op = row.operator("wrinkle.add_muscle", text="Linear", icon="FORCE_CURVE")
+        op.kind, op.pick = "LINEAR", True
+        op = row.operator("wrinkle.add_muscle", text="Sheet", icon="MOD_LATTICE")
+        op.kind, op.pick = "SHEET", True
+        layout.label(text="Facial Muscle Set")
+        row = layout.row(align=True)
+        row.operator("wrinkle.add_landmarks", icon="EMPTY_AXIS")
+        row.operator("wrinkle.add_muscle_set", icon="USER")
+        layout.label(text="Expressions")
+        grid = layout.grid_flow(columns=2, align=True)
+        for key, label in (("SURPRISE", "Surprise"), ("FROWN", "Frowning"), ("FEAR", "Fear"),
+                           ("NEUTRAL", "Neutral")):
+            grid.operator("wrinkle.expression", text=label).expression = key
+        layout.operator("wrinkle.refine", icon="MOD_SUBSURF")
+
+
+class VIEW3D_PT_wrinkle_muscle(bpy.types.Panel):
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Wrinkles"
+    bl_label = "Muscle"
+
+    @classmethod
+    def poll(cls, context):
+        ob = context.active_object
+        return ob is not None and ob.wrinkle_muscle.is_muscle
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        ob = context.active_object
+        s = ob.wrinkle_muscle
+        layout.prop(s, "kind")
+        layout.prop(s, "role")
+        layout.prop(s, "side")
+        layout.prop(s, "contraction")
+        layout.prop(s, "wrinkles_only")
+        col = layout.column()
+        col.active = not s.wrinkles_only
+        col.prop(s, "pull")
+        layout.separator()
+        if s.kind == "LINEAR":
+            layout.prop(s, "radius")
+            layout.prop(s, "angle")
+            layout.prop(s, "angle_c")
+        else:
+            layout.prop(s, "length")
+            layout.prop(s, "width")
+            layout.prop(s, "width_c")
+            layout.prop(s, "depth")
+        layout.separator()
+        layout.prop(s, "lambda_w")
+        layout.prop(s, "n_wrinkles")
+        layout.prop(s, "k0")
+        layout.prop(s, "alpha")
+        layout.prop(s, "fade_ends")
+        layout.prop(s, "show_region")
+        layout.operator("wrinkle.drive_contraction", icon="DRIVER")
+
+
+def _wrap(text, width):
+    words, lines, cur = text.split(), [], ""
+    for w in words:
+        if len(cur) + len(w) + 1 > width and cur:
+            lines.append(cur)
+            cur = w
+        else:
+            cur = f"{cur} {w}".strip()
+    return lines + [cur] if cur else lines
+
+
+classes = (WRINKLE_UL_muscles, VIEW3D_PT_wrinkle_face, VIEW3D_PT_wrinkle_muscle)
+register, unregister = bpy.utils.register_classes_factory(classes)
