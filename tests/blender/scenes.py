@@ -3,7 +3,7 @@
 import bpy
 import numpy as np
 
-from tests.core.meshes import grid, squash_vertical
+from tests.core.meshes import grid, squash_vertical  # noqa: F401 (re-exported)
 
 WIDTH, HEIGHT = 0.14, 0.08
 

@@ -1,0 +1,164 @@
+"""Bad input gets a clear message, and nothing is lost (issue 2, section 4)."""
+
+import bpy
+import numpy as np
+import pytest
+
+from tests.blender import scenes
+from wrinkle_addon import pipeline
+
+
+def _frames(face, frames=(1, 2)):
+    for f in frames:
+        bpy.context.scene.frame_set(f)
+    pos = scenes.evaluated_positions(face)
+    assert np.isfinite(pos).all()
+    assert "Internal error" not in pipeline.status(face)
+    return pos
+
+
+def test_mesh_without_faces_is_refused():
+    me = bpy.data.meshes.new("Edges")
+    me.from_pydata([(0, 0, 0), (1, 0, 0), (1, 1, 0)], [(0, 1), (1, 2)], [])
+    ob = bpy.data.objects.new("Edges", me)
+    bpy.context.scene.collection.objects.link(ob)
+    bpy.context.view_layer.objects.active = ob
+    with pytest.raises(RuntimeError, match="has no faces"):
+        bpy.ops.wrinkle.enable()
+    assert not ob.modifiers and not ob.wrinkles.enabled
+
+
+def test_non_mesh_object_is_refused():
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    bpy.context.scene.collection.objects.link(cam)
+    bpy.context.view_layer.objects.active = cam
+    with pytest.raises(RuntimeError, match="not a mesh"):
+        bpy.ops.wrinkle.enable()
+    curve = bpy.data.objects.new("Curve", bpy.data.curves.new("Curve", "CURVE"))
+    bpy.context.scene.collection.objects.link(curve)
+    bpy.context.view_layer.objects.active = curve
+    with pytest.raises(RuntimeError, match="not a mesh"):
+        bpy.ops.wrinkle.add_muscle()
+
+
+def test_loose_vertices_zero_length_edges_degenerate_triangles_and_ngons():
+    from tests.core.meshes import grid
+
+    rest, _e, _t, quads = grid(50, 30, scenes.WIDTH, scenes.HEIGHT)
+    n = len(rest)
+    extra = [(0.2, 0, 0.0), (0.3, 0, 0.0), (0.3, 0, 0.0),  # loose, and a zero-length edge
+             (0.0, -0.01, 0.03), (0.0, -0.01, 0.03), (0.01, -0.01, 0.03)]  # degenerate triangle
+    angles = np.linspace(0, 5 * np.pi / 3, 6)
+    hexagon = [(0.09 + 0.01 * np.cos(a), 0.0, 0.04 + 0.01 * np.sin(a)) for a in angles]
+    verts = [tuple(v) for v in rest] + extra + hexagon
+    faces = [tuple(q) for q in quads] + [(n + 3, n + 4, n + 5), tuple(range(n + 6, n + 12))]
+    me = bpy.data.meshes.new("Messy")
+    me.from_pydata(verts, [(n + 1, n + 2)], faces)
+    face = bpy.data.objects.new("Messy", me)
+    bpy.context.scene.collection.objects.link(face)
+    bpy.context.view_layer.objects.active = face
+    face.shape_key_add(name="Basis")
+    key = face.shape_key_add(name="BrowsUp")
+    co = np.array(verts, np.float32)
+    co[:n] = scenes.squash_vertical(rest, 0.7, scenes.HEIGHT)
+    key.points.foreach_set("co", co.ravel())
+    key.value = 1.0
+    bpy.ops.wrinkle.enable()
+    scenes.add_sheet(face, contraction=1.0)
+    pos = _frames(face)
+    assert len(pos) == len(me.vertices)
+    assert np.abs(scenes.offsets(face)).max() > 0
+    assert max(p.loop_total for p in me.polygons) == 6
+
+
+def test_muscle_attachment_equal_to_insertion():
+    face = scenes.make_face()
+    bpy.ops.wrinkle.enable()
+    with pytest.raises(RuntimeError, match="distinct"):
+        bpy.ops.wrinkle.add_muscle(kind="LINEAR", use_points=True, points=(0, 0, 0.04) * 4)
+    bpy.context.view_layer.objects.active = face
+    bpy.ops.wrinkle.add_muscle(kind="LINEAR", use_points=True, points=(0, 0, 0.04, 0.04, 0, 0.04) + (0,) * 6)
+    muscle = bpy.context.view_layer.objects.active
+    muscle.wrinkle_muscle.contraction = 1.0
+    muscle.data.vertices[1].co = muscle.data.vertices[0].co  # edited onto its attachment
+    _frames(face)
+    assert "attachment equals its insertion" in pipeline.status(face)
+
+
+@pytest.mark.parametrize("prop,value,message", [
+    ("length", 0.0, "Ls is 0"), ("width", 0.0, "Ws is 0"),
+])
+def test_sheet_zero_sizes(prop, value, message):
+    face, muscle = scenes.wrinkled_face(contraction=1.0)
+    setattr(muscle.wrinkle_muscle, prop, value)
+    _frames(face)
+    assert message in pipeline.status(face)
+    assert np.abs(scenes.offsets(face)).max() == 0
+
+
+def test_linear_zero_radius():
+    face = scenes.make_face()
+    bpy.ops.wrinkle.enable()
+    bpy.ops.wrinkle.add_muscle(kind="LINEAR", use_points=True, points=(0, 0, 0.04, 0.04, 0, 0.04) + (0,) * 6)
+    muscle = bpy.context.view_layer.objects.active
+    muscle.wrinkle_muscle.contraction = 1.0
+    muscle.wrinkle_muscle.radius = 0.0
+    _frames(face)
+    assert "R is 0" in pipeline.status(face)
+
+
+@pytest.mark.parametrize("nw", [0, 1000])
+def test_extreme_wrinkle_counts(nw):
+    face, muscle = scenes.wrinkled_face(contraction=1.0, n_wrinkles=nw)
+    face.data.shape_keys.key_blocks["BrowsUp"].value = 1.0
+    _frames(face)
+    off = scenes.offsets(face)
+    assert np.isfinite(off).all() and np.abs(off).max() < 0.05
+
+
+@pytest.mark.parametrize("prop", ["k0", "alpha", "lambda_w", "pull", "length", "width", "depth",
+                                  "contraction"])
+def test_nan_typed_into_a_field(prop):
+    face, muscle = scenes.wrinkled_face(contraction=1.0)
+    face.data.shape_keys.key_blocks["BrowsUp"].value = 1.0
+    setattr(muscle.wrinkle_muscle, prop, float("nan"))
+    _frames(face)
+    face.wrinkles.strength = float("nan")
+    _frames(face, (3,))
+    assert np.isfinite(scenes.offsets(face)).all()
+
+
+def test_linked_read_only_mesh_is_refused(tmp_path):
+    scenes.make_face("Linked")
+    lib = tmp_path / "lib.blend"
+    bpy.data.libraries.write(str(lib), {bpy.data.objects["Linked"]})
+    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    with bpy.data.libraries.load(str(lib), link=True) as (src, dst):
+        dst.objects = ["Linked"]
+    ob = dst.objects[0]
+    bpy.context.scene.collection.objects.link(ob)
+    bpy.context.view_layer.objects.active = ob
+    with pytest.raises(RuntimeError, match="linked"):
+        bpy.ops.wrinkle.enable()
+    assert not ob.wrinkles.enabled
+
+
+def test_muscle_deleted_while_referenced_shows_in_list():
+    face, muscle = scenes.wrinkled_face(contraction=1.0)
+    bpy.data.objects.remove(muscle)
+    _frames(face)
+    assert len(face.wrinkles.muscles) == 1 and face.wrinkles.muscles[0].object is None
+    bpy.context.view_layer.objects.active = face
+    bpy.ops.wrinkle.remove_muscle()
+    assert len(face.wrinkles.muscles) == 0
+
+
+def test_handler_never_raises_on_broken_state():
+    face, muscle = scenes.wrinkled_face(contraction=1.0)
+    face.modifiers.remove(face.modifiers[0])  # the user deleted our modifier
+    _frames(face)
+    assert "modifier is missing" in pipeline.status(face)
+    face.data.attributes.remove(face.data.attributes["wrinkle_offset"])
+    bpy.ops.wrinkle.enable()
+    _frames(face, (4,))
+    assert pipeline.status(face) == ""
