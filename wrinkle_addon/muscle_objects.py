@@ -100,9 +100,9 @@ def create(context, face, kind, points, name=None, **params):
     s = ob.wrinkle_muscle
     s.is_muscle = True
     s.kind = kind
-    _size_defaults(s, kind, pts)
     for key, value in params.items():
         setattr(s, key, value)
+    _size_defaults(s, kind, pts, given=params)
     if face is not None:
         face.wrinkles.muscles.add().object = ob
         if face.type == "MESH":
@@ -111,22 +111,29 @@ def create(context, face, kind, points, name=None, **params):
     return ob
 
 
-def _size_defaults(s, kind, pts):
-    """Defaults that give a visible result the first time, scaled to the muscle's size."""
+def _size_defaults(s, kind, pts, given=()):
+    """Defaults that give a visible result the first time, scaled to the muscle's size.
+
+    The furrow depth k0 is a quarter of the half cycle u (eq. 6), so wrinkles are
+    as deep as they are wide apart whatever the size of the face.  Parameters in
+    ``given`` are left as the caller set them.
+    """
     if kind == "LINEAR":
         span = (pts[1] - pts[0]).length
-        s.radius = 1.3 * span
-        reach = s.radius
+        sizes = {"radius": 1.3 * span}
     else:
         a_c, i_c = (pts[0] + pts[1]) / 2, (pts[2] + pts[3]) / 2
         span = (i_c - a_c).length
-        s.length = 1.15 * span
-        s.width = 0.5 * ((pts[1] - pts[0]).length + (pts[2] - pts[3]).length)
-        s.width_c = 0.3 * s.width
-        s.depth = 0.5 * max(s.width, span)
-        reach = s.length
+        width = 0.5 * ((pts[1] - pts[0]).length + (pts[2] - pts[3]).length)
+        sizes = {"length": 1.15 * span, "width": width, "width_c": 0.25 * width,
+                 "depth": 0.5 * max(width, span)}
+    for key, value in sizes.items():
+        if key not in given:
+            setattr(s, key, value)
+    reach = s.radius if kind == "LINEAR" else s.length
     u = (1.0 - s.lambda_w) * reach / (2.0 * max(s.n_wrinkles, 1))
-    s.k0 = 0.25 * u
+    if "k0" not in given:
+        s.k0 = 0.25 * u
 
 
 def linear_points_at(location, direction, length):

@@ -248,6 +248,8 @@ class WRINKLE_OT_add_landmarks(bpy.types.Operator):
         bb = np.array([tuple(v) for v in face.bound_box])
         guess = presets.estimate_landmarks(bb.min(axis=0), bb.max(axis=0))
         dg = context.evaluated_depsgraph_get()
+        located = {key: _project_front(face, dg, guess[key][0], guess[key][2]) or Vector(guess[key])
+                   for key, _label, _desc in presets.LANDMARKS}  # before any data changes
         coll = muscle_objects.muscle_collection(context.scene)
         for key, _label, desc in presets.LANDMARKS:
             name = f"{LANDMARK_PREFIX}{face.name} {key}"
@@ -257,11 +259,9 @@ class WRINKLE_OT_add_landmarks(bpy.types.Operator):
                 ob.empty_display_type = "SPHERE"
                 coll.objects.link(ob)
             ob.empty_display_size = 0.01 * _surface_scale(face)
-            p = guess[key]
-            loc = _project_front(face, dg, p[0], p[2]) or Vector(p)
             ob.parent = face
             ob.matrix_parent_inverse.identity()
-            ob.location = loc
+            ob.location = located[key]
             ob["wrinkle_landmark"] = key
             ob["description"] = desc
             ob.show_name = True
@@ -282,10 +282,14 @@ def _landmark_positions(face):
 
 
 def build_muscle_set(context, face, landmarks):
-    """Create the ten mirrored muscles from face-local landmarks.  Returns the new objects."""
+    """Create the ten mirrored muscles from face-local landmarks.  Returns the new objects.
+
+    Every end point is projected onto the skin first: creating objects changes the
+    depsgraph, and an evaluated object must not be used after that.
+    """
     dg = context.evaluated_depsgraph_get()
     mw = face.matrix_world
-    made = []
+    placed = []
     for role, side, kind, pts in presets.layout(landmarks):
         world = []
         for x, z in pts:
@@ -293,11 +297,14 @@ def build_muscle_set(context, face, landmarks):
             if loc is None:
                 loc = Vector((x, float(landmarks["glabella"][1]), z))
             world.append(mw @ loc)
-        display = dict((r, n) for r, n, _k in presets.MUSCLES)[role]
+        placed.append((role, side, kind, world))
+    names = {r: n for r, n, _k in presets.MUSCLES}
+    made = []
+    for role, side, kind, world in placed:
         params = dict(presets.ROLE_PARAMS.get(role, {}))
         if "angle" in params:
             params["angle"] = math.radians(params["angle"])
-        ob = muscle_objects.create(context, face, kind, world, name=f"{display}.{side}", **params)
+        ob = muscle_objects.create(context, face, kind, world, name=f"{names[role]}.{side}", **params)
         ob.wrinkle_muscle.role = role
         ob.wrinkle_muscle.side = side
         made.append(ob)

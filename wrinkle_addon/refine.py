@@ -52,8 +52,7 @@ def refine(face, muscles, factor=4.0, max_vertices=1_000_000, progress=None):
             bm.from_mesh(me)
             bm.faces.ensure_lookup_table()
             chosen = {e for f in np.flatnonzero(bad_face) for e in bm.faces[int(f)].edges}
-            bmesh.ops.subdivide_edges(bm, edges=list(chosen), cuts=1, use_grid_fill=True,
-                                      use_smooth=0.0)
+            bmesh.ops.subdivide_edges(bm, edges=list(chosen), cuts=1, use_grid_fill=True)
             bm.to_mesh(me)
         finally:
             bm.free()

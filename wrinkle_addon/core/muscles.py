@@ -22,7 +22,8 @@ Choices, with reasons:
 
 * ``a = cos(pi/2 * angle/Omega)`` instead of Waters' ``cos(angle)`` cut off at
   Omega: the notes allow it, and it removes the step where the pull would jump
-  from ``cos(Omega)`` to 0 at the cone's side and tear the skin.
+  from ``cos(Omega)`` to 0 at the cone's side and tear the skin.  A sheet's
+  pull across its width uses eq. 15's profile (flat to h_c, then to 0 at Ws/2).
 * ``Rf`` is Zhang's ``R`` (``Ls`` for a sheet): both papers mean the end of the
   area of influence.  ``Rs`` is the distance from the attachment to the
   insertion, so the pull is strongest at the insertion, where the muscle
@@ -231,12 +232,15 @@ def _sheet_field(rest, m):
     gamma = 2.0 * h / m.spread
     inside = (gamma <= 1.0) & (depth <= m.depth)
 
+    half_w = 0.5 * m.spread
     aoi = np.flatnonzero(inside & (l > 0.0) & (lam <= 1.0))
-    ang = np.cos(0.5 * np.pi * gamma[aoi])
+    # Across the fibres the pull is flat up to h_c and then falls to 0 at Ws/2 with the
+    # profile of eq. 15: a cosine across the whole width would pull each sheet's centre
+    # hardest and scallop the brows and furrows of side-by-side sheets (Frontalis).
+    ang = zhang.attenuation(h[aoi], min(m.spread_c, half_w), half_w)
     pull_weight = r_s * ang * radial_falloff(l[aoi], r_s, m.length)
 
     region = np.flatnonzero(inside & (lam >= m.lambda_w) & (lam <= 1.0))  # eq. 14
-    half_w = 0.5 * m.spread
     amp, u = _wrinkle_amplitude(l[region], h[region], min(m.spread_c, half_w), half_w, m, m.length)
     cdir = np.broadcast_to(-fibre, (len(region), 3)).copy()
     return MuscleField(

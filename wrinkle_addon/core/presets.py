@@ -48,11 +48,11 @@ EXPRESSIONS = {
     "FEAR": {"FRONTALIS_INNER": 1.0, "CORRUGATOR": 0.8},
 }
 
-# Parameters per role that differ from the defaults (lambda_w, n_wrinkles, angle in degrees).
+# Parameters per role that differ from the defaults (angles in degrees).
 ROLE_PARAMS = {
-    "FRONTALIS_INNER": {"lambda_w": 0.3, "n_wrinkles": 4},
-    "FRONTALIS_MAJOR": {"lambda_w": 0.3, "n_wrinkles": 4},
-    "FRONTALIS_OUTER": {"lambda_w": 0.3, "n_wrinkles": 4},
+    "FRONTALIS_INNER": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.12},
+    "FRONTALIS_MAJOR": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.12},
+    "FRONTALIS_OUTER": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.12},
     "CORRUGATOR": {"lambda_w": 0.1, "n_wrinkles": 2, "angle": 30.0},
     "NASALIS": {"lambda_w": 0.3, "n_wrinkles": 3, "angle": 30.0},
     "ZYGOMATICUS_MINOR": {"lambda_w": 0.5, "n_wrinkles": 2},
@@ -104,10 +104,16 @@ def layout(landmarks):
     def brow_z(f):  # a gently arched brow line from the glabella to the outer brow
         return g[1] + (bo[1] - g[1]) * f + 0.12 * bw * np.sin(np.pi * min(f, 1.0))
 
-    def hair_z(f):  # hairline recedes a little toward the temples
-        return hair[1] - 0.15 * (hair[1] - g[1]) * f * f
+    def hair_z(f):
+        # The frontalis attaches to the galea aponeurotica, above the hairline; Waters' pull
+        # compresses the skin most near the attachment, so this puts the furrows on the
+        # forehead rather than at the hairline.  The line recedes toward the temples.
+        return hair[1] + 0.35 * (hair[1] - g[1]) - 0.2 * (hair[1] - g[1]) * f * f
 
     def sheet(f0, f1):
+        # neighbouring sheets overlap by a quarter of their width so their pulls blend
+        pad = 0.125 * (f1 - f0)
+        f0, f1 = max(f0 - pad, 0.02), f1 + pad
         above = 0.08 * (hair[1] - g[1])  # insertion just above the brow hairs
         return [(x(f0), hair_z(f0)), (x(f1), hair_z(f1)),
                 (x(f1), brow_z(f1) + above), (x(f0), brow_z(f0) + above)]
