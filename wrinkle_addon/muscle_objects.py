@@ -125,7 +125,7 @@ def _size_defaults(s, kind, pts, given=()):
         a_c, i_c = (pts[0] + pts[1]) / 2, (pts[2] + pts[3]) / 2
         span = (i_c - a_c).length
         width = 0.5 * ((pts[1] - pts[0]).length + (pts[2] - pts[3]).length)
-        sizes = {"length": 1.15 * span, "width": width, "width_c": 0.25 * width,
+        sizes = {"length": 1.3 * span, "width": width, "width_c": width / 6.0,
                  "depth": 0.5 * max(width, span)}
     for key, value in sizes.items():
         if key not in given:

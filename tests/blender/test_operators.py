@@ -73,7 +73,7 @@ def test_mirrored_pairs_are_symmetric():
     for role, _n, _k in presets.MUSCLES:
         left, right = by_key[(role, "L")], by_key[(role, "R")]
         np.testing.assert_allclose(np.sort(left[:, 0]), np.sort(-right[:, 0]), atol=1e-12)
-        assert np.all(left[:, 0] >= 0)
+        assert left[:, 0].mean() > 0  # the left muscle lies on the +X side (sheets may cross the midline)
 
 
 def test_add_muscle_at_cursor_gets_visible_defaults():

@@ -168,6 +168,19 @@ def radial_falloff(dist, r_s, r_f):
     return np.where(dist <= r_s, inner, np.where(dist <= r_f, outer, 0.0))
 
 
+def across_falloff(h, h_c, half_width):
+    """Sheet pull across the fibres: 1 up to ``h_c``, then ``1 - smoothstep`` to 0 at Ws/2.
+
+    Waters' cosine across the whole width pulls each sheet's centre hardest, so
+    side-by-side sheets (the three Frontalis) scallop the brows and bend the
+    furrows into arcs.  A smoothstep ramp is a partition of unity: two sheets
+    whose ramps overlap exactly pull the skin between them as much as their cores.
+    """
+    span = max(half_width - h_c, _EPS)
+    s = np.clip((np.asarray(h) - h_c) / span, 0.0, 1.0)
+    return 1.0 - s * s * (3.0 - 2.0 * s)
+
+
 def _empty_field():
     z = np.zeros(0, dtype=np.int32)
     return MuscleField(z, np.zeros(0), np.zeros(3), np.zeros(3), z, np.zeros(0), np.zeros((0, 3)), 0.0)
@@ -234,10 +247,7 @@ def _sheet_field(rest, m):
 
     half_w = 0.5 * m.spread
     aoi = np.flatnonzero(inside & (l > 0.0) & (lam <= 1.0))
-    # Across the fibres the pull is flat up to h_c and then falls to 0 at Ws/2 with the
-    # profile of eq. 15: a cosine across the whole width would pull each sheet's centre
-    # hardest and scallop the brows and furrows of side-by-side sheets (Frontalis).
-    ang = zhang.attenuation(h[aoi], min(m.spread_c, half_w), half_w)
+    ang = across_falloff(h[aoi], min(m.spread_c, half_w), half_w)
     pull_weight = r_s * ang * radial_falloff(l[aoi], r_s, m.length)
 
     region = np.flatnonzero(inside & (lam >= m.lambda_w) & (lam <= 1.0))  # eq. 14

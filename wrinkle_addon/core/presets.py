@@ -104,26 +104,26 @@ def layout(landmarks):
     def brow_z(f):  # a gently arched brow line from the glabella to the outer brow
         return g[1] + (bo[1] - g[1]) * f + 0.12 * bw * np.sin(np.pi * min(f, 1.0))
 
-    def hair_z(f):
-        # The frontalis attaches to the galea aponeurotica, above the hairline; Waters' pull
-        # compresses the skin most near the attachment, so this puts the furrows on the
-        # forehead rather than at the hairline.  The line recedes toward the temples.
-        return hair[1] + 0.35 * (hair[1] - g[1]) - 0.2 * (hair[1] - g[1]) * f * f
+    # The Frontalis attaches to the galea aponeurotica above the hairline; Waters' pull
+    # compresses the skin most near the attachment, so this puts the furrows on the
+    # forehead rather than at the hairline.  The three sheets of a side share one
+    # attachment line and one insertion height, so eq. 7 puts their furrows in phase.
+    # Their centres are D = bw/3 apart and each is 1.5 D wide with h_c = D/4: the
+    # smoothstep ramps of neighbours (and of the two inner sheets at the midline)
+    # coincide exactly, and their pulls add up to a uniform lift of the brows.
+    attach_z = hair[1] + 0.35 * (hair[1] - g[1])
+    insert_z = brow_z(0.5) + 0.08 * (hair[1] - g[1])  # just above the brow hairs
 
-    def sheet(f0, f1):
-        # neighbouring sheets overlap by a quarter of their width so their pulls blend
-        pad = 0.125 * (f1 - f0)
-        f0, f1 = max(f0 - pad, 0.02), f1 + pad
-        above = 0.08 * (hair[1] - g[1])  # insertion just above the brow hairs
-        return [(x(f0), hair_z(f0)), (x(f1), hair_z(f1)),
-                (x(f1), brow_z(f1) + above), (x(f0), brow_z(f0) + above)]
+    def sheet(i):
+        c0, c1 = (i - 0.25) / 3.0, (i + 1.25) / 3.0
+        return [(x(c0), attach_z), (x(c1), attach_z), (x(c1), insert_z), (x(c0), insert_z)]
 
     ey = eye[1]
     mid = abs(mouth[0] - g[0])
     out = {
-        "FRONTALIS_INNER": sheet(0.06, 0.40),
-        "FRONTALIS_MAJOR": sheet(0.40, 0.72),
-        "FRONTALIS_OUTER": sheet(0.72, 1.02),
+        "FRONTALIS_INNER": sheet(0),
+        "FRONTALIS_MAJOR": sheet(1),
+        "FRONTALIS_OUTER": sheet(2),
         "CORRUGATOR": [(x(0.10), g[1] - 0.05 * (g[1] - ey)), (x(0.55), brow_z(0.55) + 0.04 * bw)],
         "NASALIS": [(x(0.30), nose[1] + 0.25 * (ey - nose[1])), (x(0.06), ey - 0.05 * (ey - nose[1]))],
         "ZYGOMATICUS_MINOR": [
