@@ -1,0 +1,29 @@
+"""Viewport outlines of the area of influence and the wrinkling region."""
+
+import numpy as np
+
+from tests.core.meshes import grid
+from tests.core.test_muscles import linear, sheet
+from wrinkle_addon.core.muscles import muscle_field
+from wrinkle_addon.core.outline import muscle_outline
+
+
+def test_sheet_outline_bounds_the_region():
+    m = sheet()
+    out = muscle_outline(m)
+    assert out["aoi"].shape[1] == 3 and len(out["aoi"]) % 2 == 0
+    rest, *_ = grid(120, 80)
+    region = rest[muscle_field(rest, m).region]
+    lo, hi = out["region"].min(axis=0), out["region"].max(axis=0)
+    assert np.all(region[:, [0, 2]] >= lo[[0, 2]] - 1e-9) and np.all(region[:, [0, 2]] <= hi[[0, 2]] + 1e-9)
+    # the region lies inside the area of influence
+    assert out["aoi"][:, 2].max() >= hi[2] - 1e-9 and out["aoi"][:, 2].min() <= lo[2] + 1e-9
+
+
+def test_linear_outline_reaches_radius_and_degenerate_muscles_draw_nothing():
+    m = linear()
+    out = muscle_outline(m)
+    d = np.linalg.norm(out["aoi"] - m.attachment[0], axis=1)
+    assert np.isclose(d.max(), m.length)
+    bad = linear(insertion=m.attachment.copy())
+    assert all(len(v) == 0 for v in muscle_outline(bad).values())
