@@ -76,14 +76,15 @@ def muscle_collection(scene):
     return coll
 
 
-def create(context, face, kind, points, name=None, reach=1.3, **params):
+def create(context, face, kind, points, name=None, reach=1.3, depth_factor=0.25, **params):
     """Create a muscle object from world-space end points and register it on ``face``.
 
     ``points`` is ``[attachment, insertion]`` for a linear muscle and
     ``[m_A1, m_A2, m_I2, m_I1]`` for a sheet.  The object's origin is the
     attachment (its centre for a sheet), so rotating and scaling it behaves
     naturally.  Unset parameters get defaults sized from the muscle itself: the
-    area of influence reaches ``reach`` times the attachment-insertion distance.
+    area of influence reaches ``reach`` times the attachment-insertion distance,
+    and the furrow depth k0 is ``depth_factor`` times the half cycle u.
     """
     pts = [Vector(p) for p in points]
     origin = pts[0] if kind == "LINEAR" else (pts[0] + pts[1]) / 2
@@ -103,7 +104,7 @@ def create(context, face, kind, points, name=None, reach=1.3, **params):
     s.kind = kind
     for key, value in params.items():
         setattr(s, key, value)
-    _size_defaults(s, kind, pts, reach, given=params)
+    _size_defaults(s, kind, pts, reach, depth_factor, given=params)
     if face is not None:
         face.wrinkles.muscles.add().object = ob
         if face.type == "MESH":
@@ -112,11 +113,11 @@ def create(context, face, kind, points, name=None, reach=1.3, **params):
     return ob
 
 
-def _size_defaults(s, kind, pts, reach, given=()):
+def _size_defaults(s, kind, pts, reach, depth_factor, given=()):
     """Defaults that give a visible result the first time, scaled to the muscle's size.
 
-    The furrow depth k0 is a quarter of the half cycle u (eq. 6), so wrinkles are
-    as deep as they are wide apart whatever the size of the face.  Parameters in
+    The furrow depth k0 is a fraction of the half cycle u (eq. 6), so wrinkles keep
+    their proportions whatever the size of the face.  Parameters in
     ``given`` are left as the caller set them.
     """
     if kind == "LINEAR":
@@ -134,7 +135,7 @@ def _size_defaults(s, kind, pts, reach, given=()):
     extent = s.radius if kind == "LINEAR" else s.length
     u = (1.0 - s.lambda_w) * extent / (2.0 * max(s.n_wrinkles, 1))
     if "k0" not in given:
-        s.k0 = 0.25 * u
+        s.k0 = depth_factor * u
 
 
 def linear_points_at(location, direction, length):

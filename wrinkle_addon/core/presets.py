@@ -49,13 +49,15 @@ EXPRESSIONS = {
 }
 
 # Parameters per role that differ from the defaults (angles in degrees; ``reach`` is the
-# area of influence as a multiple of the attachment-insertion distance).
+# area of influence as a multiple of the attachment-insertion distance, ``depth_factor``
+# the furrow depth k0 as a fraction of the half cycle u).
 ROLE_PARAMS = {
     "FRONTALIS_INNER": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.08},
     "FRONTALIS_MAJOR": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.08},
     "FRONTALIS_OUTER": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.08},
-    "CORRUGATOR": {"lambda_w": 0.1, "n_wrinkles": 2, "angle": 30.0},
-    "NASALIS": {"lambda_w": 0.3, "n_wrinkles": 3, "angle": 30.0},
+    # frown lines and bunny lines are deep for their spacing
+    "CORRUGATOR": {"lambda_w": 0.1, "n_wrinkles": 2, "angle": 30.0, "depth_factor": 0.6},
+    "NASALIS": {"lambda_w": 0.3, "n_wrinkles": 3, "angle": 30.0, "depth_factor": 0.4},
     "ZYGOMATICUS_MINOR": {"lambda_w": 0.5, "n_wrinkles": 2},
     # the mouth muscles end at the mouth corner: a short reach and a narrow cone keep
     # their regions from running across the lips to the other side of the face
