@@ -1,0 +1,82 @@
+"""The scanned ICT head (../shared/data/ict_head.npz): wrinkles from measured compression alone.
+
+Skipped when the data file is absent; the project never ships a copy of it.
+"""
+
+from pathlib import Path
+
+import bpy
+import numpy as np
+import pytest
+
+from tests.blender import scenes
+
+DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ict_head.npz"
+pytestmark = pytest.mark.skipif(not DATA.exists(), reason=f"{DATA} not found")
+
+BROWS_UP = ("browInnerUp_L", "browInnerUp_R", "browOuterUp_L", "browOuterUp_R")
+
+
+@pytest.fixture
+def ict_face():
+    from sample_scenes.lib import ict, rigging
+
+    data = ict.load_ict(DATA)
+    face = ict.ict_object(data, name="ICTHead")
+    rigging.wrinkle_face(face, data["landmarks"], wrinkles_only=True, refine=True)
+    return face, data["landmarks"]
+
+
+def _heights(face):
+    """Signed wrinkle height along the rest normal (the offset is purely normal here)."""
+    me = face.data
+    rest = np.empty((len(me.vertices), 3), np.float32)
+    me.attributes["position"].data.foreach_get("vector", rest.ravel())
+    off = scenes.offsets(face)
+    return rest, -off[:, 1]  # the forehead looks toward -Y: outward is -Y
+
+
+def test_brow_raise_wrinkles_the_forehead_from_compression_alone(ict_face):
+    face, lm = ict_face
+    scene = bpy.context.scene
+    muscles = [r.object for r in face.wrinkles.muscles]
+    assert all(m.wrinkle_muscle.wrinkles_only for m in muscles)
+    assert all(m.wrinkle_muscle.contraction == 0.0 for m in muscles)
+    scene.frame_set(1)
+    assert np.abs(scenes.offsets(face)).max() == 0.0  # neutral: nothing compressed
+    keys = face.data.shape_keys.key_blocks
+    for name in BROWS_UP:
+        keys[name].value = 1.0
+    scene.frame_set(2)
+    rest, h = _heights(face)
+    g, hair = lm["glabella"], lm["hairline_center"]
+    forehead = ((rest[:, 2] > g[2] + 0.01) & (rest[:, 2] < hair[2]) & (np.abs(rest[:, 0] - g[0]) < 0.03)
+                & (rest[:, 1] < g[1] + 0.02))
+    assert forehead.sum() > 100
+    assert np.abs(h[forehead]).max() > 5e-4  # furrows of half a millimetre or more
+    # horizontal furrows: walking up the forehead the height changes sign repeatedly
+    column = forehead & (np.abs(rest[:, 0] - g[0] - 0.012) < 0.002)
+    order = np.argsort(rest[column, 2])
+    profile = h[column][order]
+    strong = profile[np.abs(profile) > 0.1 * np.abs(profile).max()]
+    assert np.sum(np.sign(strong[1:]) != np.sign(strong[:-1])) >= 3  # two furrows or more
+    # while a horizontal walk across the forehead stays in phase (few sign changes)
+    z0 = rest[column][order][np.argmax(np.abs(profile)), 2]
+    row = forehead & (np.abs(rest[:, 2] - z0) < 0.0015) & (np.abs(rest[:, 0] - g[0] - 0.012) < 0.006)
+    across = h[row][np.argsort(rest[row, 0])]
+    assert np.mean(np.sign(across) == np.sign(across[np.argmax(np.abs(across))])) > 0.7
+    # and the lower face, which the brows do not compress, stays smooth
+    lower = rest[:, 2] < lm["nose_tip"][2]
+    assert np.abs(h[lower]).max() < 0.2 * np.abs(h[forehead]).max()
+
+
+def test_brow_down_wrinkles_between_the_brows(ict_face):
+    face, lm = ict_face
+    keys = face.data.shape_keys.key_blocks
+    keys["browDown_L"].value = keys["browDown_R"].value = 1.0
+    bpy.context.scene.frame_set(3)
+    rest, h = _heights(face)
+    g = lm["glabella"]
+    between = ((np.abs(rest[:, 2] - g[2]) < 0.01) & (np.abs(rest[:, 0] - g[0]) < 0.02)
+               & (rest[:, 1] < g[1] + 0.01))
+    assert np.abs(h[between]).max() > 2e-4
