@@ -5,10 +5,14 @@
 For each scene (the procedural head, the forehead patch, and the scanned ICT head when
 ../shared/data/ict_head.npz exists) it saves the .blend, renders each expression frame
 twice - wrinkle strength 0 (the same deformation, no wrinkles) and 1 - and writes
-``out/contact_sheet.png``: one row per scene, each expression as a without/with pair.
+``out/contact_sheet.png``: one row per scene, each expression as a without/with pair, and
+``out/before_after.png``: Surprise and Frowning of the last head, without / with.
+Blender's own render log goes to ``out/render.log``.
 """
 
 import argparse
+import contextlib
+import os
 import sys
 import time
 from pathlib import Path
@@ -29,6 +33,26 @@ _T0 = time.perf_counter()
 
 def log(msg):
     print(f"[demo {time.perf_counter() - _T0:6.1f}s] {msg}", flush=True)
+
+
+@contextlib.contextmanager
+def quiet(log_path):
+    """Send Blender's own per-tile render chatter (C-level stdout/stderr) to a log file."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = os.dup(1), os.dup(2)
+    with open(log_path, "ab") as log:
+        os.dup2(log.fileno(), 1)
+        os.dup2(log.fileno(), 2)
+        try:
+            yield
+        finally:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            os.close(saved[0])
+            os.close(saved[1])
 
 
 def load_rgba(path):
@@ -84,7 +108,8 @@ def render_scene(name, builder, out, size, samples):
             path = out / f"{name}_{shot.lower()}_{label}.png"
             scene.render.filepath = str(path)
             t = time.perf_counter()
-            bpy.ops.render.render(write_still=True)
+            with quiet(out / "render.log"):
+                bpy.ops.render.render(write_still=True)
             log(f"{name}: {shot} {label} wrinkles -> {path.name} ({time.perf_counter() - t:.1f}s)")
             row.append(path)
     face.wrinkles.strength = 1.0
@@ -104,7 +129,7 @@ def main(argv=None):
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     addon_utils.enable("wrinkle_addon", default_set=True)
-    jobs = [("head", head.build), ("forehead_patch", forehead_patch.build)]
+    jobs = [("forehead_patch", forehead_patch.build), ("head", head.build)]
     if ict_head.available():
         jobs.append(("ict_head", ict_head.build))
     else:
@@ -115,6 +140,9 @@ def main(argv=None):
         rows.append(render_scene(name, builder, out, args.size, args.samples))
     sheet = out / "contact_sheet.png"
     contact_sheet(rows, sheet)
+    # README picture: the last head scene's Surprise and Frowning, without / with
+    pick = [p for p in rows[-1] if "surprise" in p.name or "frowning" in p.name]
+    contact_sheet([pick[:2], pick[2:4]], out / "before_after.png")
     log(f"contact sheet -> {sheet} (rows: {', '.join(n for n, _ in jobs)}; "
         "each expression as a without / with wrinkles pair)")
     bpy.ops.wm.read_factory_settings(use_empty=True)  # avoids the bpy 4.5 exit hang

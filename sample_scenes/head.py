@@ -22,7 +22,7 @@ def build(target_verts=40000, view="front"):
     scene = bpy.context.scene
     head = headgen.make_head(target_verts)
     face = scene_setup.mesh_object_from_arrays("Head", head["positions"], head["quads"], head["corner_uvs"])
-    scene_setup.add_portrait_rig(scene, face, view=view)
+    scene_setup.add_portrait_rig(scene, face, view=view, frame_scale=1.35)
     rigging.wrinkle_face(face, head["landmarks"])
     rigging.key_expressions(face, FRAMES)
     scene.frame_start, scene.frame_end = 1, 40

@@ -30,7 +30,7 @@ def build(view="front"):
     scene = bpy.context.scene
     data = ict.load_ict(DATA)
     face = ict.ict_object(data, name="ICTHead")
-    scene_setup.add_portrait_rig(scene, face, view=view)
+    scene_setup.add_portrait_rig(scene, face, view=view, frame_scale=1.35)
     rigging.wrinkle_face(face, data["landmarks"], wrinkles_only=True)
     rigging.key_shape_keys(face, {1: {}, 20: SURPRISE, 40: FROWN})
     scene.frame_start, scene.frame_end = 1, 40

@@ -20,7 +20,7 @@ from bpy.props import (
 from bpy_extras import view3d_utils
 from mathutils import Vector
 
-from . import muscle_objects, pipeline, refine, stage
+from . import bake, muscle_objects, pipeline, refine, stage
 from .core import presets
 
 MUSCLE_KINDS = [
@@ -504,6 +504,63 @@ class WRINKLE_OT_refine(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class WRINKLE_OT_bake(bpy.types.Operator):
+    """Bake the animated, wrinkled face to an Alembic cache next to the .blend file and render
+    a stand-in from it, so the file renders on a farm with no add-on installed"""
+
+    bl_idname = "wrinkle.bake"
+    bl_label = "Bake for Farm"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filepath: StringProperty(name="File", description="Alembic file to write (// is the .blend's folder)",
+                             subtype="FILE_PATH", default="")
+    frame_start: IntProperty(name="Start", description="First frame to bake (default: the scene's)",
+                             default=-1)
+    frame_end: IntProperty(name="End", description="Last frame to bake (default: the scene's)",
+                           default=-1)
+
+    poll = classmethod(_face_poll)
+
+    def execute(self, context):
+        face = _face(context)
+        scene = context.scene
+        start = scene.frame_start if self.frame_start < 0 else self.frame_start
+        end = scene.frame_end if self.frame_end < 0 else self.frame_end
+        path = self.filepath or bake.default_path(face)
+        wm = _wm_progress(context, 2)
+        print(f"Expression Wrinkles: baking {face.name} frames {start}-{end} to {path}")
+        try:
+            wm.progress_update(1)
+            baked = bake.bake(context, face, path, start, end)
+        except (bake.BakeError, RuntimeError, OSError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        finally:
+            wm.progress_end()
+        self.report({"INFO"}, f'Baked frames {start}-{end} to {path}; "{baked.name}" renders them')
+        return {"FINISHED"}
+
+
+class WRINKLE_OT_free_bake(bpy.types.Operator):
+    """Remove the baked stand-in and render the live wrinkles again (the cache file is kept)"""
+
+    bl_idname = "wrinkle.free_bake"
+    bl_label = "Free Bake"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        face = _face(context)
+        if face is None or face.type != "MESH" or face.wrinkles.bake_object is None:
+            cls.poll_message_set("This face has no bake")
+            return False
+        return True
+
+    def execute(self, context):
+        bake.free(_face(context))
+        return {"FINISHED"}
+
+
 classes = (
     WRINKLE_OT_enable,
     WRINKLE_OT_disable,
@@ -514,5 +571,7 @@ classes = (
     WRINKLE_OT_remove_muscle,
     WRINKLE_OT_drive_contraction,
     WRINKLE_OT_refine,
+    WRINKLE_OT_bake,
+    WRINKLE_OT_free_bake,
 )
 register, unregister = bpy.utils.register_classes_factory(classes)

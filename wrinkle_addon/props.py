@@ -215,6 +215,11 @@ class WrinkleFaceSettings(bpy.types.PropertyGroup):
         name="Muscles",
         description="Muscles acting on this face",
     )
+    bake_object: PointerProperty(
+        name="Baked Stand-in",
+        description="The object that renders the baked wrinkles from an Alembic cache, if baked",
+        type=bpy.types.Object,
+    )
     active_muscle: IntProperty(
         name="Active Muscle",
         description="Index of the selected muscle in the list",

@@ -75,6 +75,10 @@ class VIEW3D_PT_wrinkle_face(bpy.types.Panel):
                            ("NEUTRAL", "Neutral")):
             grid.operator("wrinkle.expression", text=label).expression = key
         layout.operator("wrinkle.refine", icon="MOD_SUBSURF")
+        row = layout.row(align=True)
+        row.operator("wrinkle.bake", icon="FILE_CACHE")
+        if s.bake_object is not None:
+            row.operator("wrinkle.free_bake", icon="TRASH")
 
 
 class VIEW3D_PT_wrinkle_muscle(bpy.types.Panel):

@@ -1,27 +1,34 @@
 """Procedural human head for demos, tests and benchmarks. Pure NumPy, no bpy.
 
 Conventions: metres, Z up, the face looks toward -Y, the character's left is +X.
-The chin is near z = 0 and the crown near z = 0.23.
+The chin is near z = 0.02 and the crown at z = 0.23; the skull is 0.145 m wide.
 
 How it is built
 ---------------
-* The shape is an implicit function ``f(p)`` (negative inside): a few smoothly
-  blended ellipsoids and capsules (cranium, mid-face, mandible, neck, ears,
-  eyeballs, nose, lips) plus a relief of anisotropic Gaussians and grooves
-  (brow ridge, eye sockets, lid lines, cheekbones, nasolabial folds, philtrum,
-  mouth line, chin) subtracted from it, i.e. displaced along the normal.
-* The head is star-shaped seen from ``ORIGIN``, a point inside it behind the
-  mouth. Every vertex is the root of ``f`` along a ray from ``ORIGIN``.
-* The rays come from a latitude-longitude grid whose columns and rows are
-  packed densely over the face and sparsely elsewhere, so the face gets edges of
-  about 1.5 mm at the default 40k vertices while the back of the skull is
-  coarser. The crown is closed by a quad cap (a Coons patch on the azimuthal
-  equidistant plane, relaxed so the four valence-3 corners open up); the neck is
-  left open at the bottom. Every face is a quad, wound counter-clockwise seen
-  from outside.
-* UVs: the band uses its (azimuth, elevation) with the same scale on both axes
-  on the face (close to conformal there) and compresses the back of the head;
-  the crown cap is its own disc-shaped island.
+* The shape is an implicit function ``head_field(p)`` (negative inside, close to
+  a signed distance): smoothly blended primitives (a superellipsoid cranium,
+  ellipsoids for the mid-face and mouth, capsules for the mandible and neck,
+  spheres for the eyeballs under closed lids) minus a relief displaced along
+  the normal: Gaussians, ridges and grooves for the brow ridge, eye sockets,
+  lid lines, nose (dorsum, tip, alae), cheekbones, nasolabial folds, philtrum,
+  lips and mouth line, chin, and the ears.
+* Every vertex is the root of the field along a ray. Above the throat the rays
+  leave ``ORIGIN`` (the head is star-shaped from there; ``tests`` checks it);
+  the neck is sampled by level rays from the same vertical axis, so the open
+  neck ring lies in the plane z = -0.085.
+* The rays form a latitude-longitude grid whose columns and rows are packed
+  densely over the face and sparsely elsewhere: at the default 40k vertices the
+  forehead, brows, eyes, nose and mouth get edges of 1.6-1.9 mm while the back
+  of the skull gets 3-7 mm. The crown is closed by a quad cap: a Coons patch on
+  the azimuthal-equidistant plane, relaxed together with the top rows so its
+  four valence-3 corners open up. All faces are quads, wound counter-clockwise
+  seen from outside.
+* Narrow grooves are widened to the mesh resolution (``detail``), so coarse
+  meshes do not alias them.
+* UVs: the band uses (azimuth, elevation seen from ``ORIGIN``) at the same
+  scale on both axes over the face (close to conformal there), with the back of
+  the head squeezed into the outer 5 % of U. The crown is a separate disc
+  island above the band.
 """
 
 from functools import partial
@@ -137,15 +144,18 @@ def _nose_relief(x, z, detail):
     ax = _soft_abs(x)
     # Dorsum: straight in profile from the nasion to the supratip.
     t = np.clip((0.119 - z) / (0.119 - 0.083), 0.0, 1.0)
-    height = 0.0175 * t * _smoothstep(0.124, 0.112, z)
-    half_width = 0.0075 + 0.0025 * t
+    height = (0.0055 + 0.0085 * t) * _smoothstep(0.124, 0.112, z)
+    half_width = 0.0075 + 0.0010 * t
     ridge = height * np.exp(-((x / half_width) ** 2))
     # Tip lobule, slightly bifid; the columella under it.
-    tip = 0.0055 * np.exp(-0.5 * ((ax - 0.0015) / 0.0095) ** 2 - 0.5 * ((z - 0.0815) / 0.0065) ** 2)
+    sz = np.where(z > 0.0815, 0.0095, 0.0060)
+    tip = 0.0055 * np.exp(-0.5 * ((ax - 0.0015) / 0.0075) ** 2 - 0.5 * ((z - 0.0815) / sz) ** 2)
     body = (ridge + tip) * _smoothstep(0.0685, 0.0805, z)
     # Alae: rounded wings either side of the tip, bounded by the alar crease.
-    u = np.hypot((ax - 0.0112) / 0.0072, (z - 0.0755) / 0.0066)
-    ala = 0.0095 * np.exp(-0.5 * (u / 0.60) ** 4) * _smoothstep(0.0660, 0.0745, z)
+    c, s = np.cos(0.45), np.sin(0.45)  # the wing leans from the cheek up toward the tip
+    du, dv = ax - 0.0108, z - 0.0752
+    u = np.hypot((c * du + s * dv) / 0.0088, (-s * du + c * dv) / 0.0058)
+    ala = 0.0092 * np.exp(-0.5 * (u / 0.62) ** 3) * _smoothstep(0.0660, 0.0745, z)
     crease = 0.0006 * _groove(u - 1.05, 0.12 * 0.0067, detail) * _smoothstep(0.006, 0.012, ax)
     return _smax(body, ala, 0.008) - crease
 
@@ -171,7 +181,7 @@ def _mouth_relief(x, z, detail):
     r -= 0.0015 * np.exp(-0.5 * (((ax - 0.0265) / 0.003) ** 2 + ((z - 0.0475) / 0.004) ** 2))
     # Mentolabial sulcus and chin.
     r -= 0.0025 * np.exp(-0.5 * ((z - 0.0310) / 0.0040) ** 2) * np.exp(-0.5 * (x / 0.016) ** 2)
-    r += 0.0035 * np.exp(-0.5 * ((z - 0.0180) / 0.0080) ** 2) * np.exp(-0.5 * (x / 0.014) ** 2)
+    r += 0.0030 * np.exp(-0.5 * ((z - 0.0180) / 0.0080) ** 2) * np.exp(-0.5 * (x / 0.011) ** 2)
     return r
 
 
@@ -192,13 +202,13 @@ def head_field(p, detail=0.0):
     f = _superellipsoid(pc, (0.0, 0.012, 0.136), (0.072, 0.099, 0.095), 2.5)
 
     # Mid-face (maxilla, cheeks) and the mouth region.
-    f = _smin(f, _ellipsoid(p, (0.0, -0.030, 0.088), (0.061, 0.066, 0.052)), 0.02)
-    f = _smin(f, _ellipsoid(p, (0.0, -0.040, 0.052), (0.040, 0.055, 0.040)), 0.02)
+    f = _smin(f, _ellipsoid(p, (0.0, -0.030, 0.090), (0.060, 0.067, 0.050)), 0.02)
+    f = _smin(f, _ellipsoid(p, (0.0, -0.044, 0.054), (0.036, 0.057, 0.040)), 0.02)
 
     # Mandible: chin bar, bodies to the jaw angles, rami up to the ears.
-    jaw = _round_cone(m, (0.0, -0.076, 0.021), (0.013, -0.075, 0.022), 0.016, 0.016)
-    jaw = _smin(jaw, _round_cone(m, (0.013, -0.075, 0.022), (0.043, -0.008, 0.033),
-                                 0.016, 0.011), 0.01)
+    jaw = _round_cone(m, (0.0, -0.068, 0.021), (0.008, -0.067, 0.022), 0.014, 0.014)
+    jaw = _smin(jaw, _round_cone(m, (0.008, -0.067, 0.022), (0.043, -0.008, 0.033),
+                                 0.014, 0.011), 0.01)
     jaw = _smin(jaw, _round_cone(m, (0.043, -0.008, 0.033), (0.050, 0.012, 0.085),
                                  0.011, 0.012), 0.01)
     f = _smin(f, jaw, 0.03)
@@ -209,13 +219,28 @@ def head_field(p, detail=0.0):
     # Eyeballs under closed lids.
     f = _smin(f, _ellipsoid(m, (0.032, -0.0695, 0.1165), (0.013, 0.013, 0.013)), 0.003)
 
-    # ---- relief along the normal (positive raises the skin) ----
+    # Relief along the normal, evaluated only where it can be non-zero.
+    front = y < -0.02
+    if front.any():
+        pf = p[front]
+        f[front] -= _face_relief(pf, m[front], detail) * _smoothstep(-0.02, -0.06, pf[:, 1])
+    ear = (ax > 0.045) & (np.abs(y - 0.016) < 0.0165) & (np.abs(z - 0.104) < 0.030)
+    if ear.any():
+        f[ear] -= _ear_relief(p[ear], ax[ear])
+    return f
+
+
+def _face_relief(p, m, detail):
+    """Height (m) of the facial features above the blended base shapes."""
+    x, z = p[:, 0], p[:, 2]
+    ax = m[:, 0]
     r = _nose_relief(x, z, detail)
     # Brow ridge and glabella.
     zb = 0.1335 + 0.04 * ax * ax
     r += 0.0040 * np.exp(-0.5 * ((z - zb) / 0.0065) ** 2) * np.exp(-0.5 * (ax / 0.042) ** 2)
-    r += 0.0010 * _gauss(p, (0.0, -0.095, 0.129), (0.009, 0.02, 0.008))
-    # Frontal eminences.
+    r += 0.0025 * _gauss(p, (0.0, -0.095, 0.129), (0.012, 0.02, 0.009))
+    # Frontal eminences and the flat of the lower forehead.
+    r += 0.0040 * _gauss(p, (0.0, -0.090, 0.147), (0.035, 0.03, 0.012))
     r += 0.0040 * _gauss(m, (0.022, -0.085, 0.168), (0.022, 0.03, 0.020))
     # Eye sockets, lids and temples.
     r -= 0.0058 * _gauss(m, (0.032, -0.080, 0.1180), (0.015, 0.02, 0.011))
@@ -228,21 +253,24 @@ def head_field(p, detail=0.0):
     z_tear = 0.1065 - 0.0008 * ex + 0.0020 * ex * ex
     r -= 0.0007 * _groove(z - z_tear, 0.0020, detail) * lid
     r -= 0.0030 * _gauss(m, (0.066, -0.040, 0.130), (0.012, 0.02, 0.015))
-    # Cheekbones, cheek hollows.
+    # Cheekbones and the fullness of the cheeks.
     r += 0.0040 * _gauss(m, (0.052, -0.066, 0.098), (0.015, 0.02, 0.010))
-    r += 0.0030 * _gauss(m, (0.034, -0.085, 0.086), (0.012, 0.02, 0.011))
+    r += 0.0035 * _gauss(m, (0.044, -0.075, 0.070), (0.016, 0.03, 0.020))
     # Nasolabial folds: fuller cheek lateral to a shallow crease.
     a, b = (0.0195, 0.0745), (0.0340, 0.0420)
     d_fold, t_fold = _segment_distance_2d(ax, z, a, b)
     normal = np.array([a[1] - b[1], b[0] - a[0]]) / np.hypot(a[1] - b[1], b[0] - a[0])
     side = (ax - a[0]) * normal[0] + (z - a[1]) * normal[1]  # > 0 on the cheek side
     taper = np.sin(np.pi * t_fold) ** 2
-    r -= 0.0008 * _groove(d_fold, 0.0018, detail) * taper
-    r += 0.0020 * np.exp(-0.5 * (d_fold / 0.0060) ** 2) * taper * _smoothstep(-0.002, 0.004, side)
+    r -= 0.0005 * _groove(d_fold, 0.0018, detail) * taper
+    r += 0.0012 * np.exp(-0.5 * (d_fold / 0.0060) ** 2) * taper * _smoothstep(-0.002, 0.004, side)
     r += _mouth_relief(x, z, detail)
-    f -= r * _smoothstep(-0.02, -0.06, y)
+    return r
 
-    # Ears: relief on the side of the head, a rim (helix) around a hollow.
+
+def _ear_relief(p, ax):
+    """Ears: relief on the side of the head, a rim (helix) around a hollow."""
+    y, z = p[:, 1], p[:, 2]
     ey = (y - 0.016) / 0.0165
     ez = (z - 0.104) / 0.030
     er = np.hypot(ey, ez)
@@ -251,8 +279,7 @@ def head_field(p, detail=0.0):
     rim = np.exp(-0.5 * ((er - 0.82) / 0.12) ** 2)
     hollow = np.exp(-0.5 * (np.hypot(ey + 0.15, (z - 0.100) / 0.016) / 0.55) ** 2)
     ear = outline * lift * (0.55 + 0.45 * rim - 0.45 * hollow)
-    f -= ear * _smoothstep(0.045, 0.060, ax)
-    return f
+    return ear * _smoothstep(0.045, 0.060, ax)
 
 
 # --------------------------------------------------------------------------
@@ -271,14 +298,14 @@ def _cast(origins, dirs, field, t_max=_RAY_MAX):
     d = dirs.reshape(-1, 3)
     lo = np.zeros(len(d))
     hi = np.full(len(d), t_max)
-    for _ in range(10):  # bisection to ~0.25 mm
+    for _ in range(8):  # bisection to ~1 mm
         mid = 0.5 * (lo + hi)
         inside = field(o + mid[:, None] * d) < 0.0
         lo = np.where(inside, mid, lo)
         hi = np.where(inside, hi, mid)
     f_lo = field(o + lo[:, None] * d)
     f_hi = field(o + hi[:, None] * d)
-    for _ in range(6):  # Illinois false position
+    for _ in range(5):  # Illinois false position
         t = hi - f_hi * (hi - lo) / (f_hi - f_lo)
         ft = field(o + t[:, None] * d)
         inside = ft < 0.0
@@ -334,9 +361,7 @@ def _band_rays(cols, rows, field):
     rows_neck = max(3, int(round(0.07 * rows)))
     el = _warp(np.linspace(0.0, 1.0, rows - rows_neck), _EL_LOW, _EL_CAP,
                np.radians(-44), np.radians(48), np.radians(14), 0.45)
-    # Columns fan out to a uniform spacing toward the crown (for the cap).
-    beta = _smoothstep(np.radians(40), _EL_FIXED, el)[:, None]
-    az = (1.0 - beta) * az0[None, :] + beta * s[None, :]
+    az = np.broadcast_to(az0, (len(el), cols))
     # The lowest ray of each column meets the neck wall at z = _NECK_TOP ...
     flat = _directions(az0, np.zeros(cols))
     o_top = np.array([ORIGIN[0], ORIGIN[1], _NECK_TOP])
@@ -418,7 +443,7 @@ def _crown(az, el, n_verts, quads, cap, polar):
     valid = nb >= 0
     nb = np.where(valid, nb, 0)
     weight = valid / valid.sum(1, keepdims=True)
-    for _ in range(max(200, 6 * m)):
+    for _ in range(250):
         q[idx] = np.einsum("ik,ikj->ij", weight, q[nb])
     return q
 
@@ -431,28 +456,32 @@ _UV_SCALE = 0.45 / _UV_AZ_FACE  # UV units per radian on the face (both axes)
 _UV_EL_MIN = np.radians(-78.0)
 
 
-def _corner_uvs(positions, az, q, polar, quads, cols, n_band):
+def _corner_uvs(positions, az, q, polar, quads, cols):
     """Band: u from the azimuth (linear over +-80 degrees, the back squeezed
     into the outer 5 %), v from the elevation seen from ORIGIN at the same
-    scale. Crown: a disc island above the band."""
-    rel = positions.astype(np.float64) - ORIGIN
+    scale. Crown (faces with every corner above _EL_FIXED): a disc island
+    above the band."""
+    n_band = len(az)
+    rel = positions[:n_band].astype(np.float64) - ORIGIN
     el = np.arctan2(rel[:, 2], np.hypot(rel[:, 0], rel[:, 1]))
+    az = np.where(np.arange(n_band) % cols == 0, -np.pi, az)  # column 0 is the seam
     a = np.abs(az)
     u = np.where(a <= _UV_AZ_FACE, _UV_SCALE * a,
                  0.45 + 0.05 * (a - _UV_AZ_FACE) / (np.pi - _UV_AZ_FACE))
-    uv = np.empty((len(positions), 2))
-    uv[:n_band, 0] = 0.5 + np.sign(az) * u
-    uv[:n_band, 1] = 0.02 + _UV_SCALE * (el[:n_band] - _UV_EL_MIN)
+    band_uv = np.stack([0.5 + np.sign(az) * u, 0.02 + _UV_SCALE * (el - _UV_EL_MIN)], axis=1)
     v_top = 0.02 + _UV_SCALE * (_EL_FIXED - _UV_EL_MIN)
     half = 0.5 * (1.0 - v_top) - 0.01
     centre = np.array([0.5, 1.0 - 0.01 - half])
-    uv[polar] = centre + q[polar] * (half / (0.5 * np.pi - _EL_FIXED))
-    corner = uv[quads]
-    # Seam at the back of the band: column 0 (az = -pi) is u = 1 in the last column.
-    band = (quads < n_band) & ~polar[quads]
+    island_uv = centre + q * (half / (0.5 * np.pi - _EL_FIXED))
+
+    crown = polar[quads].all(axis=1)
+    corner = np.empty(quads.shape + (2,))
+    corner[crown] = island_uv[quads[crown]]
+    corner[~crown] = band_uv[quads[~crown]]
+    # The last column closes on column 0 at u = 1.
     col = quads % cols
-    last = (band & (col == cols - 1)).any(axis=1, keepdims=True)
-    corner[..., 0] = np.where(band & (col == 0) & last, 1.0, corner[..., 0])
+    wrap = ~crown[:, None] & (col == 0) & (col == cols - 1).any(axis=1, keepdims=True)
+    corner[..., 0] = np.where(wrap, 1.0, corner[..., 0])
     return corner.astype(np.float32)
 
 
@@ -534,7 +563,7 @@ def make_head(target_verts=40000):
     all_dirs[polar] = _directions(az_all[polar], 0.5 * np.pi - theta[polar])
     t = _cast(origins, all_dirs, field)
     positions = (origins + t[:, None] * all_dirs).astype(np.float32)
-    corner_uvs = _corner_uvs(positions, az_all[:n_band], q, polar, quads, cols, n_band)
+    corner_uvs = _corner_uvs(positions, az_all[:n_band], q, polar, quads, cols)
     return {"positions": positions, "quads": quads, "corner_uvs": corner_uvs,
             "landmarks": _landmarks(positions, field)}
 

@@ -135,11 +135,12 @@ def _light(scene, collection, name, kind, energy, direction, location, **props):
 
 
 def add_portrait_rig(scene, target_object, view="front", frame_height=None, material=True,
-                     collection=None):
+                     collection=None, frame_scale=1.9):
     """Camera, lights and world for a head facing -Y, Z up.
 
-    The frame is centred on the face: the nose tip is taken as the most
-    forward vertex near the midline, the crown as the highest vertex.
+    The frame runs from the crown to below the chin: the nose tip is taken as
+    the most forward vertex near the midline, the crown as the highest vertex,
+    and ``frame_height`` (m, default 1.9 x crown-to-nose) sets the zoom.
     ``view`` is ``'front'`` or ``'three_quarter'`` (35 degrees toward the
     character's left, +X). The key light is a sun from high above and to the
     character's right, grazing the forehead so horizontal furrows and the
@@ -161,8 +162,8 @@ def add_portrait_rig(scene, target_object, view="front", frame_height=None, mate
     cand = pts[midline & upper] if np.any(midline & upper) else pts
     nose = cand[np.argmin(cand[:, 1])]
     span = max(hi[2] - nose[2], 1e-3)  # crown to nose tip, ~0.15 m on an adult
-    if frame_height is None:
-        frame_height = 1.75 * span
+    if frame_height is None:  # frame_scale 1.9: the whole head; 1.3: forehead to mouth
+        frame_height = frame_scale * span
     look_at = np.array([centre[0], nose[1], hi[2] - 0.80 * span])
 
     cam_data = bpy.data.cameras.new("PortraitCamera")
@@ -176,7 +177,10 @@ def add_portrait_rig(scene, target_object, view="front", frame_height=None, mate
     dist = 0.5 * frame_height / (math.tan(half_fov) * aspect)
 
     yaw = math.radians(35.0) if view == "three_quarter" else 0.0
-    pivot = np.array([centre[0], 0.5 * (nose[1] + centre[1]), look_at[2]])
+    # Orbit about the middle of the head at face height, so both views centre it.
+    level = np.abs(pts[:, 2] - look_at[2]) < 0.1 * span
+    back = pts[level, 1].max() if np.any(level) else centre[1]
+    pivot = np.array([centre[0], 0.5 * (nose[1] + back), look_at[2]])
     offset = dist * np.array([math.sin(yaw), -math.cos(yaw), 0.0])
     cam = bpy.data.objects.new("PortraitCamera", cam_data)
     collection.objects.link(cam)

@@ -1,0 +1,238 @@
+"""Sample content: the procedural head, the forehead patch and the ICT loader.
+
+Pure NumPy; nothing here imports bpy.
+"""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from sample_scenes.lib import headgen, ict  # noqa: E402
+
+ICT_PATH = ict.DEFAULT_PATH
+PAIRS = [n[:-2] for n in headgen.LANDMARK_NAMES if n.endswith("_L")]
+
+
+@pytest.fixture(scope="module")
+def head():
+    return headgen.make_head()
+
+
+@pytest.fixture(scope="module")
+def patch():
+    return headgen.make_forehead_patch()
+
+
+def face_normals(mesh):
+    p = mesh["positions"].astype(np.float64)
+    q = mesh["quads"]
+    n = np.cross(p[q[:, 2]] - p[q[:, 0]], p[q[:, 3]] - p[q[:, 1]])  # 2 x vector area
+    return n, p[q].mean(axis=1)
+
+
+def edges(quads):
+    e = np.concatenate([quads[:, [0, 1]], quads[:, [1, 2]], quads[:, [2, 3]], quads[:, [3, 0]]])
+    return np.unique(np.sort(e, axis=1), axis=0, return_counts=True)
+
+
+def check_mesh(mesh):
+    pos, quads, uvs = mesh["positions"], mesh["quads"], mesh["corner_uvs"]
+    assert pos.dtype == np.float32 and pos.ndim == 2 and pos.shape[1] == 3
+    assert quads.dtype == np.int32 and quads.ndim == 2 and quads.shape[1] == 4
+    assert uvs.dtype == np.float32 and uvs.shape == (len(quads), 4, 2)
+    assert np.isfinite(pos).all() and np.isfinite(uvs).all()
+    assert quads.min() == 0 and quads.max() == len(pos) - 1  # every vertex used
+    assert all(len(set(q)) == 4 for q in quads[:: max(1, len(quads) // 2000)])
+    assert (np.sort(quads, axis=1)[:, 1:] != np.sort(quads, axis=1)[:, :-1]).all()
+    n, _ = face_normals(mesh)
+    assert 0.5 * np.linalg.norm(n, axis=1).min() > 1e-9  # no degenerate quad (m^2)
+    _, count = edges(quads)
+    assert count.max() <= 2  # manifold: no edge shared by three faces
+    assert uvs.min() >= 0.0 and uvs.max() <= 1.0
+
+
+@pytest.mark.parametrize("target", [10_000, 50_000, 200_000])
+def test_head_vertex_count_tracks_target(target):
+    mesh = headgen.make_head(target)
+    assert abs(len(mesh["positions"]) - target) <= 0.25 * target
+    check_mesh(mesh)
+
+
+def test_head_default_mesh(head):
+    check_mesh(head)
+    assert abs(len(head["positions"]) - 40_000) <= 10_000
+
+
+def test_head_is_deterministic():
+    a, b = headgen.make_head(10_000), headgen.make_head(10_000)
+    for key in ("positions", "quads", "corner_uvs"):
+        np.testing.assert_array_equal(a[key], b[key])
+
+
+def test_head_normals_point_out(head):
+    n, centres = face_normals(head)
+    outward = np.einsum("ij,ij->i", n, centres - head["positions"].mean(axis=0))
+    assert outward.mean() > 0
+    # Stricter: seen from the centre of the skull (or the neck axis, for the
+    # neck), every face is wound counter-clockwise.
+    neck_axis = np.column_stack([np.zeros(len(centres)), np.full(len(centres), 0.01), centres[:, 2]])
+    axis = np.where(centres[:, 2:3] < -0.02, neck_axis, headgen.ORIGIN)
+    assert (np.einsum("ij,ij->i", n, centres - axis) > 0).all()
+
+
+def test_head_boundary_is_the_neck_ring(head):
+    uniq, count = edges(head["quads"])
+    border = np.unique(uniq[count == 1])
+    z = head["positions"][border, 2]
+    assert len(border) > 16
+    assert np.ptp(z) < 1e-3 and z.max() < 0.0  # one level ring, below the chin
+
+
+def test_head_proportions(head):
+    p = head["positions"]
+    lm = head["landmarks"]
+    assert 0.20 < p[:, 2].max() - lm["chin"][2] < 0.26  # chin to crown
+    skull = p[np.abs(p[:, 2] - 0.17) < 0.005]
+    assert 0.13 < np.ptp(skull[:, 0]) < 0.17  # skull width above the ears
+    assert 0.17 < np.ptp(skull[:, 1]) < 0.22  # glabella to the back of the head
+
+
+def test_head_face_resolution(head):
+    p = head["positions"].astype(np.float64)
+    uniq, _ = edges(head["quads"])
+    length = np.linalg.norm(p[uniq[:, 0]] - p[uniq[:, 1]], axis=1)
+    mid = 0.5 * (p[uniq[:, 0]] + p[uniq[:, 1]])
+    lm = head["landmarks"]
+    face = ((np.abs(mid[:, 0]) < 0.05) & (mid[:, 1] < -0.05)
+            & (mid[:, 2] > lm["chin"][2]) & (mid[:, 2] < lm["hairline_center"][2]))
+    assert 0.0012 < np.median(length[face]) < 0.0021
+    back = mid[:, 1] > 0.05
+    assert np.median(length[back]) > np.median(length[face])
+
+
+def test_head_uvs_do_not_flip_or_overlap(head):
+    uv = head["corner_uvs"].astype(np.float64)
+    a, b = uv[:, 2] - uv[:, 0], uv[:, 3] - uv[:, 1]
+    area = 0.5 * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+    assert (area > 0).all()  # every quad keeps its orientation in UV space
+    # Two islands, the band and the crown disc, stacked in V without overlap:
+    # sorted by their lowest V, some face starts above every face before it.
+    lo, hi = uv[:, :, 1].min(axis=1), uv[:, :, 1].max(axis=1)
+    order = np.argsort(lo)
+    split = np.flatnonzero(lo[order][1:] > np.maximum.accumulate(hi[order])[:-1])
+    assert len(split) == 1
+    assert 1000 < len(lo) - split[0] - 1 < 0.2 * len(lo)  # the crown island
+    # The face (in front of y = -6 cm) spans about half of U.
+    n, centres = face_normals(head)
+    face = (centres[:, 1] < -0.06) & (centres[:, 2] > 0.02) & (centres[:, 2] < 0.19)
+    assert np.ptp(uv[face, :, 0]) > 0.45
+
+
+def test_head_landmarks_on_surface(head):
+    pos = head["positions"].astype(np.float64)
+    lm = head["landmarks"]
+    assert set(lm) == set(headgen.LANDMARK_NAMES)
+    for name, point in lm.items():
+        assert point.dtype == np.float32 and point.shape == (3,), name
+        dist = np.sqrt(np.min(np.sum((pos - point) ** 2, axis=1)))
+        assert dist < 0.002, name
+
+
+@pytest.mark.parametrize("mesh_name", ["head", "ict"])
+def test_landmarks_mirror_and_order(mesh_name, head):
+    if mesh_name == "ict":
+        if not ICT_PATH.exists():
+            pytest.skip("ict_head.npz is not available")
+        mesh = ict.load_ict(ICT_PATH)
+        tol = 0.004
+    else:
+        mesh, tol = head, 0.0005
+    lm = mesh["landmarks"]
+    assert set(lm) == set(headgen.LANDMARK_NAMES)
+    for base in PAIRS:
+        left, right = lm[base + "_L"], lm[base + "_R"]
+        assert left[0] > 0 > right[0], base
+        np.testing.assert_allclose(left * (-1, 1, 1), right, atol=tol, err_msg=base)
+    z = {k: v[2] for k, v in lm.items()}
+    assert z["chin"] < z["lower_lip"] < z["upper_lip"] < z["nose_tip"]
+    assert z["lower_lip"] < z["mouth_corner_L"] < z["upper_lip"] + 0.005
+    assert z["nose_tip"] < z["nose_bridge"] < z["glabella"] < z["hairline_center"]
+    assert z["nose_tip"] < z["eye_L"] < z["brow_mid_L"] < z["hairline_L"]
+    assert z["jaw_L"] < z["mouth_corner_L"] < z["cheekbone_L"] < z["eye_L"]
+    assert z["nose_ala_L"] < z["nose_tip"] + 0.002
+    front = min(lm, key=lambda k: lm[k][1])
+    assert front == "nose_tip"
+    assert lm["cheek_lateral_L"][1] > lm["mouth_corner_L"][1]  # toward the ear
+    assert lm["cheek_lateral_L"][0] > lm["mouth_corner_L"][0]
+    inner, mid, outer = lm["brow_inner_L"][0], lm["brow_mid_L"][0], lm["brow_outer_L"][0]
+    assert 0 < inner < mid < outer
+
+
+def test_head_is_star_shaped_from_origin():
+    """Every ray from ORIGIN crosses the surface once (above the neck), which
+    is what lets the vertices be found by bisection."""
+    mesh = headgen.make_head(10_000)
+    pos = mesh["positions"].astype(np.float64)
+    pos = pos[pos[:, 2] > -0.015]
+    dirs = pos - headgen.ORIGIN
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    ts = np.arange(0.001, 0.25, 0.0005)
+    inside = np.stack([headgen.head_field(headgen.ORIGIN + t * dirs) < 0 for t in ts])
+    crossings = (inside[1:] != inside[:-1]).sum(axis=0)
+    assert (crossings == 1).all()
+
+
+def test_forehead_patch(patch):
+    check_mesh(patch)
+    assert abs(len(patch["positions"]) - 20_000) <= 5_000
+    p = patch["positions"]
+    assert np.ptp(p[:, 2]) == pytest.approx(0.08, rel=1e-3)
+    assert np.ptp(p[:, 0]) < 0.14 and np.ptp(p[:, 0]) > 0.12  # arc of 0.14 on r = 0.1
+    n, _ = face_normals(patch)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    assert (n[:, 1] < -0.7).all()  # faces -Y
+    lm = patch["landmarks"]
+    assert set(lm) == {"attachment_L", "attachment_R", "insertion_L", "insertion_R"}
+    for side in "LR":
+        assert lm["attachment_" + side][2] > lm["insertion_" + side][2] + 0.05
+    assert lm["attachment_L"][0] > 0 > lm["attachment_R"][0]
+    np.testing.assert_allclose(lm["insertion_L"] * (-1, 1, 1), lm["insertion_R"], atol=1e-6)
+    uv = patch["corner_uvs"].astype(np.float64)
+    a, b = uv[:, 2] - uv[:, 0], uv[:, 3] - uv[:, 1]
+    assert (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] > 0).all()
+
+
+@pytest.mark.parametrize("target", [2_000, 80_000])
+def test_forehead_patch_count(target):
+    mesh = headgen.make_forehead_patch(width=0.1, height=0.06, target_verts=target)
+    assert abs(len(mesh["positions"]) - target) <= 0.25 * target
+
+
+@pytest.mark.skipif(not ICT_PATH.exists(), reason="ict_head.npz is not available")
+def test_ict_loader_orientation():
+    data = ict.load_ict(ICT_PATH)
+    pos = data["positions"]
+    assert pos.dtype == np.float32 and pos.shape[1] == 3
+    assert data["quads"].dtype == np.int32 and data["quads"].max() < len(pos)
+    assert data["corner_uvs"].shape == data["quads"].shape + (2,)
+    names, deltas = data["expression_names"], data["expression_deltas"]
+    assert all(isinstance(n, str) for n in names) and len(names) == len(deltas) == 53
+    assert deltas.dtype == np.float32 and deltas.shape == (len(names),) + pos.shape
+    assert np.abs(deltas).max() < 0.05  # metres: no expression moves skin 5 cm
+    assert 0.2 < np.ptp(pos[:, 2]) < 0.4  # Z up, in metres
+    lm = data["landmarks"]
+    # The face looks toward -Y: the nose is in front of the skull's middle.
+    assert lm["nose_tip"][1] < pos[:, 1].mean() - 0.05
+    assert lm["nose_tip"][1] <= pos[:, 1].min() + 1e-6
+    # Z up: the crown is above the eyes, which are above the chin.
+    assert pos[:, 2].max() > lm["eye_L"][2] > lm["chin"][2]
+    # browInnerUp_L lifts the character's left (+X) brow, and lifts it up.
+    d = deltas[names.index("browInnerUp_L")]
+    moved = np.linalg.norm(d, axis=1) > 0.5 * np.linalg.norm(d, axis=1).max()
+    assert pos[moved, 0].mean() > 0 and d[moved, 2].mean() > 0
