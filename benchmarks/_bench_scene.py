@@ -1,0 +1,250 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Scene construction for the benchmarks: an animated head rigged like a real face.
+
+* The head comes from ``sample_scenes/lib/headgen.py`` (falls back to a
+  subdivided sphere facing -Y, landmarks by proportion, if it cannot be used).
+* A "BrowsUp" shape key raises the brows and compresses the forehead
+  vertically (the brows move up ~6 mm, the hairline does not move).
+* An armature with a "Jaw" bone, weighted to the lower face by distance from
+  the chin, opens the jaw.
+* ``build_tension_group`` is the native Geometry Nodes edge-length-ratio setup
+  users build today to drive wrinkle maps.
+
+Frame layout (the same for every benchmark): BrowsUp 0 -> 1 -> 0 -> 1 at
+frames 1, 21, 41, 61; the jaw 0 -> 15 deg -> 0 -> 15 deg at 1, 16, 31, 46.
+"""
+
+import math
+import sys
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))
+
+REST_ATTR = "rest_position"
+TENSION_ATTR = "tension"
+TENSION_GROUP = "Bench Edge Tension"
+
+
+def _smoothstep(e0, e1, x):
+    t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+# ---------------------------------------------------------------------------
+# Head geometry
+# ---------------------------------------------------------------------------
+def _sphere_head(target_verts):
+    """Fallback: a lat-long sphere of radius 0.1 centred at z = 0.1, face toward -Y."""
+    rows = max(8, int(round(math.sqrt(target_verts / 2.0))))
+    cols = 2 * rows
+    el = np.linspace(-0.5 * np.pi, 0.5 * np.pi, rows + 2)[1:-1]
+    az = np.linspace(0.0, 2.0 * np.pi, cols, endpoint=False)
+    E, A = np.meshgrid(el, az, indexing="ij")
+    pos = np.stack([np.cos(E) * np.sin(A), -np.cos(E) * np.cos(A), np.sin(E)], -1).reshape(-1, 3)
+    pos = (0.1 * pos + [0.0, 0.0, 0.1]).astype(np.float32)
+    idx = np.arange(rows * cols).reshape(rows, cols)
+    nxt = np.roll(idx, -1, axis=1)
+    quads = np.stack([idx[:-1], nxt[:-1], nxt[1:], idx[1:]], -1).reshape(-1, 4).astype(np.int32)
+
+    def front(x, z):
+        y = -math.sqrt(max(0.1 ** 2 - x * x - (z - 0.1) ** 2, 0.0))
+        return np.array([x, y, z], np.float32)
+
+    lm = {
+        "hairline_center": front(0.0, 0.175), "glabella": front(0.0, 0.13),
+        "brow_outer_L": front(0.045, 0.132), "eye_L": front(0.032, 0.117),
+        "nose_tip": front(0.0, 0.08), "mouth_corner_L": front(0.026, 0.048),
+        "chin": front(0.0, 0.02), "cheekbone_L": front(0.05, 0.098),
+    }
+    return {"positions": pos, "quads": quads, "corner_uvs": None, "landmarks": lm}
+
+
+def make_head_data(target_verts):
+    """(head dict, source string)."""
+    try:
+        from sample_scenes.lib import headgen
+
+        return headgen.make_head(target_verts), "headgen"
+    except Exception as exc:  # noqa: BLE001 - benchmark fallback, reported
+        print(f"  headgen unavailable ({exc!r}); using a sphere head", flush=True)
+        return _sphere_head(target_verts), "sphere"
+
+
+def make_face_object(name, head):
+    try:
+        from sample_scenes.lib import scene_setup
+
+        return scene_setup.mesh_object_from_arrays(name, head["positions"], head["quads"],
+                                                   head["corner_uvs"])
+    except Exception as exc:  # noqa: BLE001
+        print(f"  scene_setup unavailable ({exc!r}); building the mesh directly", flush=True)
+        pos, quads = head["positions"], head["quads"]
+        me = bpy.data.meshes.new(name)
+        me.from_pydata(pos.tolist(), [], quads.tolist())
+        ob = bpy.data.objects.new(name, me)
+        bpy.context.scene.collection.objects.link(ob)
+        return ob
+
+
+# ---------------------------------------------------------------------------
+# Rig: shape key + jaw bone
+# ---------------------------------------------------------------------------
+def add_brows_up(ob, lm, amount=0.006):
+    """Shape key "BrowsUp": brows up by ``amount``, forehead compressed, hairline fixed."""
+    me = ob.data
+    n = len(me.vertices)
+    rest = np.empty(n * 3, np.float32)
+    me.attributes["position"].data.foreach_get("vector", rest)
+    rest = rest.reshape(-1, 3)
+    ob.shape_key_add(name="Basis", from_mix=False)
+    kb = ob.shape_key_add(name="BrowsUp", from_mix=False)
+    x, y, z = rest[:, 0].astype(np.float64), rest[:, 1].astype(np.float64), rest[:, 2].astype(np.float64)
+    brow = float(lm["glabella"][2])
+    eye = float(lm["eye_L"][2])
+    hair = float(lm["hairline_center"][2])
+    half_w = 1.45 * abs(float(lm["brow_outer_L"][0]) - float(lm["glabella"][0]))
+    fy = float(lm["glabella"][1])
+    # vertical profile: 0 at the eyes, 1 at the brows, back to 0 at the hairline
+    up = _smoothstep(eye, brow, z) * (1.0 - _smoothstep(brow, hair, z))
+    side = 1.0 - _smoothstep(0.6 * half_w, half_w, np.abs(x - float(lm["glabella"][0])))
+    front = 1.0 - _smoothstep(fy + 0.025, fy + 0.05, y)
+    dz = amount * up * side * front
+    co = rest.copy()
+    co[:, 2] += dz.astype(np.float32)
+    if hasattr(kb, "points"):  # the fast path (BLENDER_NOTES.md)
+        kb.points.foreach_set("co", co.ravel())
+    else:
+        kb.data.foreach_set("co", co.ravel())
+    kb.value = 0.0
+    for f, v in ((1, 0.0), (21, 1.0), (41, 0.0), (61, 1.0)):
+        kb.value = v
+        kb.keyframe_insert("value", frame=f)
+    return kb, int(np.count_nonzero(dz))
+
+
+def add_jaw_rig(ob, lm, scene):
+    """An armature with a Jaw bone rotating open, weighted to the lower face by distance."""
+    arm = bpy.data.armatures.new(ob.name + "_Rig")
+    rig = bpy.data.objects.new(ob.name + "_Rig", arm)
+    scene.collection.objects.link(rig)
+    chin = np.asarray(lm["chin"], float)
+    mouth = np.asarray(lm["mouth_corner_L"], float)
+    eye = np.asarray(lm["eye_L"], float)
+    pivot = np.array([0.0, chin[1] + 0.09, 0.5 * (mouth[2] + eye[2])])  # near the jaw joint
+    vl = bpy.context.view_layer
+    vl.objects.active = rig
+    bpy.ops.object.mode_set(mode="EDIT")
+    eb = arm.edit_bones.new("Jaw")
+    eb.head = pivot.tolist()
+    eb.tail = chin.tolist()
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+    me = ob.data
+    n = len(me.vertices)
+    rest = np.empty(n * 3, np.float32)
+    me.attributes["position"].data.foreach_get("vector", rest)
+    rest = rest.reshape(-1, 3).astype(np.float64)
+    c = np.array([0.0, chin[1] + 0.02, chin[2] + 0.005])
+    d = np.linalg.norm(rest - c, axis=1)
+    w = 1.0 - _smoothstep(0.035, 0.065, d)
+    w *= 1.0 - _smoothstep(mouth[2] - 0.012, mouth[2] + 0.002, rest[:, 2])  # below the mouth line
+    w *= _smoothstep(chin[2] - 0.06, chin[2] - 0.03, rest[:, 2])  # fade out down the neck
+    vg = ob.vertex_groups.new(name="Jaw")
+    levels = np.round(w * 32.0).astype(int)
+    for lv in np.unique(levels):
+        if lv == 0:
+            continue
+        vg.add(np.flatnonzero(levels == lv).tolist(), lv / 32.0, "REPLACE")
+    mod = ob.modifiers.new("Armature", "ARMATURE")
+    mod.object = rig
+    mod.use_vertex_groups = True
+
+    pb = rig.pose.bones["Jaw"]
+    pb.rotation_mode = "XYZ"
+    for f, deg in ((1, 0.0), (16, 15.0), (31, 0.0), (46, 15.0)):
+        pb.rotation_euler = (math.radians(deg), 0.0, 0.0)
+        pb.keyframe_insert("rotation_euler", frame=f)
+    vl.objects.active = ob
+    return rig, int(np.count_nonzero(levels))
+
+
+# ---------------------------------------------------------------------------
+# Native Geometry Nodes tension (edge length / rest length, averaged to points)
+# ---------------------------------------------------------------------------
+def store_rest_position(ob):
+    me = ob.data
+    n = len(me.vertices)
+    rest = np.empty(n * 3, np.float32)
+    me.attributes["position"].data.foreach_get("vector", rest)
+    att = me.attributes.get(REST_ATTR) or me.attributes.new(REST_ATTR, "FLOAT_VECTOR", "POINT")
+    att.data.foreach_set("vector", rest)
+
+
+def build_tension_group():
+    ng = bpy.data.node_groups.get(TENSION_GROUP)
+    if ng is not None:
+        return ng
+    ng = bpy.data.node_groups.new(TENSION_GROUP, "GeometryNodeTree")
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    N, L = ng.nodes, ng.links
+    gin, gout = N.new("NodeGroupInput"), N.new("NodeGroupOutput")
+    ev = N.new("GeometryNodeInputMeshEdgeVertices")
+    rest = N.new("GeometryNodeInputNamedAttribute")
+    rest.data_type = "FLOAT_VECTOR"
+    rest.inputs["Name"].default_value = REST_ATTR
+    at1, at2 = N.new("GeometryNodeFieldAtIndex"), N.new("GeometryNodeFieldAtIndex")
+    for at, idx in ((at1, "Vertex Index 1"), (at2, "Vertex Index 2")):
+        at.domain = "POINT"
+        at.data_type = "FLOAT_VECTOR"
+        L.new(rest.outputs["Attribute"], at.inputs["Value"])
+        L.new(ev.outputs[idx], at.inputs["Index"])
+    cur = N.new("ShaderNodeVectorMath")
+    cur.operation = "DISTANCE"
+    L.new(ev.outputs["Position 1"], cur.inputs[0])
+    L.new(ev.outputs["Position 2"], cur.inputs[1])
+    rl = N.new("ShaderNodeVectorMath")
+    rl.operation = "DISTANCE"
+    L.new(at1.outputs["Value"], rl.inputs[0])
+    L.new(at2.outputs["Value"], rl.inputs[1])
+    div = N.new("ShaderNodeMath")
+    div.operation = "DIVIDE"  # GN's divide returns 0 for a zero rest length
+    L.new(cur.outputs["Value"], div.inputs[0])
+    L.new(rl.outputs["Value"], div.inputs[1])
+    on_edge = N.new("GeometryNodeFieldOnDomain")
+    on_edge.domain = "EDGE"
+    on_edge.data_type = "FLOAT"
+    L.new(div.outputs["Value"], on_edge.inputs["Value"])
+    store = N.new("GeometryNodeStoreNamedAttribute")
+    store.data_type = "FLOAT"
+    store.domain = "POINT"  # edge -> point adaptation averages the incident edges
+    store.inputs["Name"].default_value = TENSION_ATTR
+    L.new(gin.outputs[0], store.inputs["Geometry"])
+    L.new(on_edge.outputs["Value"], store.inputs["Value"])
+    L.new(store.outputs[0], gout.inputs[0])
+    return ng
+
+
+def add_tension_modifier(ob):
+    store_rest_position(ob)
+    mod = ob.modifiers.new("Tension", "NODES")
+    mod.node_group = build_tension_group()
+    return mod
+
+
+# ---------------------------------------------------------------------------
+def clear_scene():
+    for ob in list(bpy.data.objects):
+        bpy.data.objects.remove(ob)
+    for coll in (bpy.data.meshes, bpy.data.armatures, bpy.data.actions, bpy.data.node_groups,
+                 bpy.data.shape_keys, bpy.data.collections):
+        for block in list(coll):
+            try:
+                coll.remove(block)
+            except Exception:  # noqa: BLE001 - shape keys cannot be removed directly
+                pass

@@ -1,0 +1,524 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Per-frame cost of the wrinkle pipeline against Blender's own evaluation.
+
+Run:  .venv45/bin/python benchmarks/frame_update.py   (or .venv52)
+      options: --sizes 10k,50k  --frames 30  --warm 5
+
+For heads of about 10k, 50k and 200k vertices (``sample_scenes/lib/headgen``)
+the script builds a facial rig like a production one: a "BrowsUp" shape key
+(brows up 6 mm, forehead compressed, animated 0 -> 1 -> 0 -> 1) and an
+armature whose "Jaw" bone (lower face weighted by distance from the chin)
+opens 0 -> 15 deg -> 0 -> 15 deg.  Every timed frame is a new frame, after
+``--warm`` warm-up frames, timed over ``--frames`` frames
+(``time.perf_counter``).  Every ``*_ms`` is the MEDIAN over the frames (this
+machine is shared; means are in ``*_mean_ms`` where useful).  What each number
+contains:
+
+``eval_ms``
+    Blender alone, add-on registered but no face enabled (its handler runs and
+    finds nothing): ``scene.frame_set(f)`` + ``evaluated_depsgraph_get()`` +
+    reading the evaluated positions with ``foreach_get``.  This is shape
+    keys + armature + the animation system for the scene.
+``gn_tension_ms``
+    The native alternative users build today: a Geometry Nodes modifier after
+    the armature that computes, per edge, current length / rest length (rest
+    from a ``rest_position`` point attribute stored once on the mesh, fetched
+    with Edge Vertices + Evaluate at Index), averaged onto the points
+    (Evaluate on Domain EDGE, stored on POINT) as the float attribute
+    ``tension``.  ``gn_tension_ms`` = median frame time with the modifier (same
+    loop as ``eval_ms``, plus reading ``tension``) minus the median without.
+    Base and tension blocks are interleaved (A B A B) to cancel drift.
+``read_ms`` / ``compute_ms`` / ``write_ms`` (the wrinkle stage, split by hand
+    with the add-on's handler removed, calling the same functions it calls):
+    ``read_ms``: ``meshio.read_vector_prefix`` of ``wrinkle_skin`` from the
+    evaluated mesh.  ``compute_ms``: ``core.system.evaluate``.  ``write_ms``:
+    ``meshio.write_vectors`` (``foreach_set`` of ``wrinkle_offset``) +
+    ``me.update_tag()`` + the re-evaluation it triggers, timed as the next
+    ``evaluated_depsgraph_get()`` + reading positions.  That re-evaluation
+    runs the face's whole modifier stack again (shape keys, armature, the
+    Wrinkles GN stage), so ``write_ms`` grows with the rig, not with the
+    wrinkles; ``write_set_ms`` and ``reeval_ms`` give the two parts.
+``stage_ms``
+    read + compute + write.  ``gn_ratio`` = stage_ms / gn_tension_ms.  This is
+    fair in the sense that both numbers are "what the wrinkle computation adds
+    to a frame", but note the GN tension computes only the tension, while the
+    stage also computes muscle pull, directional compression, heights and
+    normals, and pays the extra re-evaluation.
+``update_face_ms`` / ``overhead_ms``
+    The whole ``pipeline.update_face`` call (checks, topology key, rest-position
+    comparison, muscle signatures, contraction gathering, evaluate, write,
+    input snapshot) without the re-evaluation; ``overhead_ms`` =
+    update_face_ms - (read + compute + write_set).
+``playback_ms``
+    The real thing: the handler active, same loop as ``eval_ms`` (frame_set +
+    evaluated_depsgraph_get + read positions).  ``frame_set`` evaluates, runs
+    ``frame_change_post`` (our handler writes and tags), then evaluates a
+    second pass.  ``playback_ratio`` = playback_ms / eval_ms.
+``eval_stage_ms``
+    frame_set + read with the Wrinkles modifier present but the handler
+    removed: what the GN output stage alone costs inside the normal evaluation.
+``region_verts``
+    ``len(plan.verts)``: vertices the per-frame NumPy touches (regions, their
+    edges' and triangles' vertices and the Waters areas of influence).
+``compute_tight_loop_ms``
+    ``core.system.evaluate`` called 40 times in a row on one frame's skin: the
+    same work as ``compute_ms`` with warm caches and no Blender threads
+    around.  ``compute_ms`` (measured right after Blender evaluated the frame)
+    is the realistic one.
+``evaluate_steps_ms``
+    ``core.system.evaluate`` replayed step by step (a copy of its code, checked
+    against the real one for equality) to show where its time goes.
+
+Sanity checks printed as it runs: region sizes and bounding boxes per
+muscle, offsets changing frame to frame, and evaluated position ==
+wrinkle_skin + wrinkle_offset (the frame shows its own wrinkles).
+
+The last line of output is one JSON object, with ``tree`` (a hash of the
+add-on and sample-scene sources measured) and the 1-minute load average at
+start and end: on a shared 2-core machine, compare runs only at low load.
+"""
+
+import argparse
+import cProfile
+import io
+import json
+import os
+import pstats
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="wrinkle_bench_"))
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+for p in (str(REPO), str(HERE)):
+    if p not in sys.path:
+        sys.path.insert(0, p)
+
+import _bench_scene as bs  # noqa: E402
+import addon_utils  # noqa: E402
+
+addon_utils.enable("wrinkle_addon", default_set=True)
+
+from wrinkle_addon import meshio, muscle_objects, operators, pipeline, stage  # noqa: E402
+from wrinkle_addon.core import mesh as core_mesh  # noqa: E402
+from wrinkle_addon.core import system, zhang  # noqa: E402
+
+pc = time.perf_counter
+_F = np.float32
+MUSCLE_LANDMARKS = ("hairline_center", "glabella", "brow_outer_L", "eye_L", "nose_tip",
+                    "mouth_corner_L", "chin", "cheekbone_L")
+
+
+def log(*a):
+    print(*a, flush=True)
+
+
+def ms(values):
+    """Median in ms: robust to other processes on a shared 2-core machine."""
+    return float(np.median(values) * 1000.0)
+
+
+def mean_ms(values):
+    return float(np.mean(values) * 1000.0)
+
+
+class Bench:
+    def __init__(self, target, warm, frames):
+        self.target = target
+        self.warm = list(range(1, warm + 1))
+        self.frames = list(range(warm + 1, warm + 1 + frames))
+        self.scene = bpy.context.scene
+        self.scene.frame_start, self.scene.frame_end = 1, 61
+
+    # -- scene -------------------------------------------------------------
+    def build(self):
+        t = pc()
+        head, source = bs.make_head_data(self.target)
+        self.source = source
+        self.landmarks = {k: np.asarray(v, float) for k, v in head["landmarks"].items()}
+        ob = bs.make_face_object("Face", head)
+        self.ob = ob
+        self.n = len(ob.data.vertices)
+        self.pos_buf = np.empty(self.n * 3, _F)
+        _kb, n_key = bs.add_brows_up(ob, self.landmarks)
+        self.rig, n_jaw = bs.add_jaw_rig(ob, self.landmarks, self.scene)
+        log(f"  head ({source}): {self.n} verts, {len(ob.data.polygons)} faces; BrowsUp moves "
+            f"{n_key} verts, Jaw group {n_jaw} verts; built in {pc() - t:.1f} s")
+
+    def read_positions(self, dg):
+        ev = self.ob.evaluated_get(dg).data
+        ev.attributes["position"].data.foreach_get("vector", self.pos_buf)
+        return ev
+
+    def frame_loop(self, frames, extra=None):
+        """Mean time of frame_set + evaluated_depsgraph_get + position read (+ extra)."""
+        times = []
+        for f in frames:
+            t0 = pc()
+            self.scene.frame_set(f)
+            dg = bpy.context.evaluated_depsgraph_get()
+            ev = self.read_positions(dg)
+            if extra is not None:
+                extra(ev)
+            times.append(pc() - t0)
+        return times
+
+    # -- 2 and 3: Blender alone, and the native GN tension ---------------------
+    def measure_eval_and_tension(self):
+        mod = bs.add_tension_modifier(self.ob)
+        tension = np.empty(self.n, _F)
+        stats = {}
+
+        def read_tension(ev):
+            ev.attributes[bs.TENSION_ATTR].data.foreach_get("value", tension)
+            stats.setdefault("min", []).append(float(tension.min()))
+
+        # untimed check that every frame really deforms the mesh
+        prev, moved = [None], []
+
+        def track(_ev):
+            if prev[0] is not None:
+                moved.append(not np.array_equal(prev[0], self.pos_buf))
+            prev[0] = self.pos_buf.copy()
+
+        mod.show_viewport = False
+        self.frame_loop(self.warm + self.frames, track)
+        log(f"  evaluated positions changed on {sum(moved)}/{len(moved)} frames")
+        base, tens = [], []
+        for _round in range(2):
+            for on in (False, True):
+                mod.show_viewport = on
+                self.frame_loop(self.warm, read_tension if on else None)
+                t = self.frame_loop(self.frames, read_tension if on else None)
+                (tens if on else base).extend(t)
+        eval_ms, with_ms = ms(base), ms(tens)
+        log(f"  eval_ms {eval_ms:.2f}   with GN tension {with_ms:.2f}   -> gn_tension_ms "
+            f"{with_ms - eval_ms:.2f}   (tension min over frames {min(stats['min']):.4f}, "
+            f"varies: {len(set(np.round(stats['min'], 6))) > 1})")
+        self.ob.modifiers.remove(mod)
+        self.ob.data.attributes.remove(self.ob.data.attributes[bs.REST_ATTR])
+        return {"eval_ms": eval_ms, "eval_mean_ms": mean_ms(base),
+                "gn_tension_ms": with_ms - eval_ms, "tension_frame_ms": with_ms}
+
+    # -- 4: the wrinkle stage ---------------------------------------------------
+    def add_wrinkles(self):
+        t = pc()
+        self.scene.frame_set(1)
+        vl = bpy.context.view_layer
+        for o in vl.objects:
+            o.select_set(False)
+        vl.objects.active = self.ob
+        self.ob.select_set(True)
+        res = bpy.ops.wrinkle.enable()
+        assert res == {"FINISHED"}, res
+        lm = {k: self.landmarks[k] for k in MUSCLE_LANDMARKS}
+        self.muscles = operators.build_muscle_set(bpy.context, self.ob, lm)
+        keys = {
+            "FRONTALIS_INNER": ((1, 0.0), (21, 1.0), (41, 0.0), (61, 1.0)),
+            "FRONTALIS_MAJOR": ((1, 0.0), (21, 1.0), (41, 0.0), (61, 1.0)),
+            "FRONTALIS_OUTER": ((1, 0.0), (21, 0.8), (41, 0.0), (61, 0.8)),
+            "CORRUGATOR": ((1, 0.0), (11, 1.0), (31, 0.0), (41, 1.0)),
+        }
+        for m in self.muscles:
+            for f, v in keys.get(m.wrinkle_muscle.role, ()):
+                m.wrinkle_muscle.contraction = v
+                m.keyframe_insert("wrinkle_muscle.contraction", frame=f)
+        self.scene.frame_set(2)
+        self.scene.frame_set(1)
+        self.state = pipeline._cache[self.ob.session_uid]
+        plan = self.state.plan
+        log(f"  wrinkles on, {len(self.muscles)} muscles, plan built, in {pc() - t:.1f} s; "
+            f"region_verts {len(plan.verts)} ({100 * len(plan.verts) / self.n:.1f} %), "
+            f"rows {len(plan.row_vert)}, pairs {len(plan.pair_row)}, edges {len(plan.edges)}, "
+            f"tris {len(plan.tris)}, pull rows {len(plan.pull_vert)}")
+        if pipeline.status(self.ob):
+            log(f"  status: {pipeline.status(self.ob)}")
+        return plan
+
+    def region_report(self, plan):
+        rest = self.state.rest
+        live = muscle_objects.live_muscles(self.ob)
+        gv = plan.verts[plan.row_vert]
+        lm = self.landmarks
+        log(f"  landmarks z: eye {lm['eye_L'][2]:.3f} glabella {lm['glabella'][2]:.3f} "
+            f"hairline {lm['hairline_center'][2]:.3f}; brow_outer x {lm['brow_outer_L'][0]:.3f}")
+        out = {}
+        for i, m in enumerate(live):
+            sel = gv[plan.row_muscle == i]
+            size = int(plan.region_sizes[i])
+            if len(sel):
+                p = rest[sel]
+                box = (f"x [{p[:, 0].min():+.3f},{p[:, 0].max():+.3f}] "
+                       f"y [{p[:, 1].min():+.3f},{p[:, 1].max():+.3f}] "
+                       f"z [{p[:, 2].min():.3f},{p[:, 2].max():.3f}]")
+            else:
+                box = "EMPTY"
+            cm = muscle_objects.to_core(m, self.ob)
+            if cm.kind == 0:
+                a, i = cm.attachment[0], cm.insertion[0]
+                geo = (f"A ({a[0]:+.3f},{a[2]:.3f}) I ({i[0]:+.3f},{i[2]:.3f}) "
+                       f"R {cm.length:.3f} Phi {np.degrees(cm.spread):.0f}")
+            else:
+                geo = f"Ls {cm.length:.3f} Ws {cm.spread:.3f} depth {cm.depth:.3f}"
+            log(f"    {m.name:24s} region {size:6d} (amp!=0 {len(sel):6d})  {box}  {geo}")
+            out[m.name] = size
+        return out
+
+    def measure_split(self, plan):
+        ob, me = self.ob, self.ob.data
+        handlers = bpy.app.handlers.frame_change_post
+        handlers.remove(pipeline.on_frame_change_post)
+        try:
+            live = muscle_objects.live_muscles(ob)
+            strength = ob.wrinkles.strength
+            st = self.state
+            rd, cp, ws, re_, base = [], [], [], [], []
+
+            def one(f, record):
+                t0 = pc()
+                self.scene.frame_set(f)
+                dg = bpy.context.evaluated_depsgraph_get()
+                self.read_positions(dg)
+                t1 = pc()
+                ev = ob.evaluated_get(dg).data
+                skin = meshio.read_vector_prefix(ev, stage.SKIN_ATTR, self.n, st.skin)
+                t2 = pc()
+                contraction = np.array([m.wrinkle_muscle.contraction for m in live], np.float64)
+                t3 = pc()
+                out = system.evaluate(plan, skin, contraction, strength, out=st.out)
+                t4 = pc()
+                meshio.write_vectors(me, stage.OFFSET_ATTR, out)
+                me.update_tag()
+                t5 = pc()
+                dg = bpy.context.evaluated_depsgraph_get()
+                self.read_positions(dg)
+                t6 = pc()
+                if record:
+                    base.append(t1 - t0)
+                    rd.append(t2 - t1)
+                    cp.append(t4 - t3)
+                    ws.append(t5 - t4)
+                    re_.append(t6 - t5)
+
+            for f in self.warm:
+                one(f, False)
+            for f in self.frames:
+                one(f, True)
+
+            # the whole update_face call, for its bookkeeping overhead
+            uf = []
+            for f in self.warm + self.frames:
+                self.scene.frame_set(f)
+                dg = bpy.context.evaluated_depsgraph_get()
+                t0 = pc()
+                pipeline.update_face(ob, dg)
+                t1 = pc()
+                bpy.context.evaluated_depsgraph_get()
+                if f in self.frames:
+                    uf.append(t1 - t0)
+        finally:
+            handlers.append(pipeline.on_frame_change_post)
+        r = {"read_ms": ms(rd), "compute_ms": ms(cp), "write_set_ms": ms(ws), "reeval_ms": ms(re_)}
+        r["write_ms"] = r["write_set_ms"] + r["reeval_ms"]
+        r["stage_ms"] = r["read_ms"] + r["compute_ms"] + r["write_ms"]
+        r["eval_stage_ms"] = ms(base)
+        r["update_face_ms"] = ms(uf)
+        r["overhead_ms"] = r["update_face_ms"] - (r["read_ms"] + r["compute_ms"] + r["write_set_ms"])
+        log("  split: " + "  ".join(f"{k} {v:.3f}" for k, v in r.items()))
+        return r
+
+    def measure_playback(self):
+        me = self.ob.data
+        off = np.empty(self.n * 3, _F)
+        skin = np.empty(self.n * 3, _F)
+        prev = [None]
+        changed, mags, acc = [], [], []
+
+        def check(ev):
+            me.attributes[stage.OFFSET_ATTR].data.foreach_get("vector", off)
+            if prev[0] is not None:
+                changed.append(not np.array_equal(prev[0], off))
+            prev[0] = off.copy()
+            mags.append(float(np.abs(off).max()))
+            ev.attributes[stage.SKIN_ATTR].data.foreach_get("vector", skin)
+            acc.append(float(np.abs(self.pos_buf - (skin + off)).max()))
+
+        self.frame_loop(self.warm)
+        times = self.frame_loop(self.frames)  # timed without the checks
+        self.frame_loop(self.warm)
+        self.frame_loop(self.frames, check)  # checks, untimed
+        playback = ms(times)
+        log(f"  playback_ms {playback:.2f}; offsets changed on {sum(changed)}/{len(changed)} frames, "
+            f"max |offset| per frame {min(mags) * 1000:.3f}..{max(mags) * 1000:.3f} mm, "
+            f"max |pos - (skin + offset)| {max(acc):.2e}")
+        return {"playback_ms": playback, "playback_mean_ms": mean_ms(times),
+                "offsets_changed_frames": int(sum(changed)), "checked_frames": len(changed),
+                "max_offset_mm": max(mags) * 1000.0, "stage_applied_err": max(acc)}
+
+    def profile(self, plan, show):
+        st = self.state
+        contraction = np.array([m.wrinkle_muscle.contraction
+                                for m in muscle_objects.live_muscles(self.ob)], np.float64)
+        self.scene.frame_set(self.frames[len(self.frames) // 2])
+        ev = self.ob.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+        skin = meshio.read_vector_prefix(ev, stage.SKIN_ATTR, self.n, np.empty((self.n, 3), _F))
+        ref = system.evaluate(plan, skin, contraction, 1.0, out=np.zeros((self.n, 3), _F))
+        steps = {}
+        for _ in range(40):
+            got, t = evaluate_steps(plan, skin, contraction, 1.0, np.zeros((self.n, 3), _F))
+            for k, v in t.items():
+                steps.setdefault(k, []).append(v)
+        same = np.array_equal(got, ref)
+        tight = []
+        for _ in range(40):
+            c = pc()
+            system.evaluate(plan, skin, contraction, 1.0, out=st.out)
+            tight.append(pc() - c)
+        steps = {k: float(np.median(v) * 1000) for k, v in steps.items()}
+        total = sum(steps.values())
+        if show:
+            log(f"  evaluate() step by step (median of 40, replica identical to evaluate: {same}), "
+                f"total {total:.3f} ms:")
+            for k, v in sorted(steps.items(), key=lambda kv: -kv[1]):
+                log(f"    {k:22s} {v:7.3f} ms  {100 * v / total:5.1f} %")
+            prof = cProfile.Profile()
+            prof.enable()
+            for _ in range(40):
+                system.evaluate(plan, skin, contraction, 1.0, out=st.out)
+            prof.disable()
+            s = io.StringIO()
+            pstats.Stats(prof, stream=s).sort_stats("tottime").print_stats(14)
+            log("  cProfile of 40 evaluate() calls, by tottime:")
+            for line in s.getvalue().splitlines():
+                if line.strip() and not line.startswith(("   Ordered", "         ")):
+                    log("    " + line.rstrip())
+            dg = bpy.context.evaluated_depsgraph_get()
+            prof = cProfile.Profile()
+            prof.enable()
+            for _ in range(40):
+                pipeline.update_face(self.ob, dg)
+            prof.disable()
+            s = io.StringIO()
+            pstats.Stats(prof, stream=s).sort_stats("tottime").print_stats(16)
+            log("  cProfile of 40 pipeline.update_face() calls (no re-evaluation), by tottime:")
+            for line in s.getvalue().splitlines():
+                if line.strip() and not line.startswith(("   Ordered", "         ")):
+                    log("    " + line.rstrip())
+            bpy.context.evaluated_depsgraph_get()
+        return steps, same, ms(tight)
+
+
+def evaluate_steps(plan, skin, contraction, strength, out):
+    """``core.system.evaluate`` split into timed steps (keep in sync with it)."""
+    t = {}
+    c = pc()
+    s = np.asarray(skin, dtype=_F)[plan.verts]
+    bad = ~np.isfinite(s).all(axis=1)
+    if bad.any():
+        s[bad] = 0.0
+    t["gather+finite"] = pc() - c
+    c = pc()
+    pull = system.waters_pull(plan, s, contraction)
+    pulled = s + pull
+    t["waters_pull"] = pc() - c
+    c = pc()
+    e = plan.edges
+    d = pulled[e[:, 1]] - pulled[e[:, 0]]
+    length = np.sqrt(np.einsum("ij,ij->i", d, d))
+    t["edge_lengths"] = pc() - c
+    c = pc()
+    tau = zhang.edge_shrinkage(plan.rest_length, length)
+    t["tau"] = pc() - c
+    c = pc()
+    eps = np.bincount(plan.pair_row, weights=plan.pair_weight * tau[plan.pair_edge],
+                      minlength=len(plan.row_vert))
+    t["eps_bincount"] = pc() - c
+    c = pc()
+    w = plan.row_amp * zhang.anisotropic(eps).astype(_F)
+    t["anisotropic"] = pc() - c
+    c = pc()
+    height = np.bincount(plan.row_vert, weights=w, minlength=len(plan.verts)).astype(_F)
+    height *= _F(np.nan_to_num(strength))
+    t["height_bincount"] = pc() - c
+    c = pc()
+    normal = core_mesh.vertex_normals(pulled, plan.tris, len(plan.verts))
+    t["normals"] = pc() - c
+    c = pc()
+    offset = pull + height[:, None] * normal
+    offset[bad] = 0.0
+    offset[~np.isfinite(offset)] = 0.0
+    t["assemble+finite"] = pc() - c
+    c = pc()
+    out[plan.verts] = offset
+    t["scatter"] = pc() - c
+    return out, t
+
+
+def run_size(label, target, args):
+    log(f"[{label}] target {target} verts")
+    t0 = pc()
+    bs.clear_scene()
+    pipeline._cache.clear()
+    b = Bench(target, args.warm, args.frames)
+    b.build()
+    r = {"verts": b.n, "head": b.source}
+    r.update(b.measure_eval_and_tension())
+    plan = b.add_wrinkles()
+    r["region_verts"] = int(len(plan.verts))
+    r["region_sizes"] = b.region_report(plan)
+    r.update(b.measure_split(plan))
+    r.update(b.measure_playback())
+    r["gn_ratio"] = r["stage_ms"] / r["gn_tension_ms"] if r["gn_tension_ms"] > 0 else None
+    r["playback_ratio"] = r["playback_ms"] / r["eval_ms"]
+    steps, same, tight = b.profile(plan, show=(label == args.profile_at))
+    r["compute_tight_loop_ms"] = tight
+    r["evaluate_steps_ms"] = {k: round(v, 4) for k, v in steps.items()}
+    r["evaluate_replica_exact"] = bool(same)
+    log(f"  => stage {r['stage_ms']:.2f} ms (read {r['read_ms']:.3f}, compute {r['compute_ms']:.3f}, "
+        f"write {r['write_ms']:.3f}); gn_ratio {r['gn_ratio']}; playback {r['playback_ms']:.2f} vs "
+        f"eval {r['eval_ms']:.2f} = x{r['playback_ratio']:.2f}  [{pc() - t0:.1f} s]")
+    return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in r.items()}
+
+
+def tree_fingerprint():
+    """Short SHA-1 of the add-on and sample-scene sources measured (they change under work)."""
+    import hashlib
+
+    h = hashlib.sha1()
+    for path in sorted(list((REPO / "wrinkle_addon").rglob("*.py"))
+                       + list((REPO / "sample_scenes" / "lib").glob("*.py"))):
+        h.update(str(path.relative_to(REPO)).encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()[:10]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sizes", default="10k,50k,200k")
+    ap.add_argument("--frames", type=int, default=40)
+    ap.add_argument("--warm", type=int, default=5)
+    ap.add_argument("--profile-at", default="50k")
+    args = ap.parse_args()
+    log(f"bpy {bpy.app.version_string}, numpy {np.__version__}, {os.cpu_count()} cpus")
+    t0 = pc()
+    result = {"bpy": bpy.app.version_string, "tree": tree_fingerprint(),
+              "loadavg_start": round(os.getloadavg()[0], 2)}
+    try:
+        for label in args.sizes.split(","):
+            target = int(float(label.lower().rstrip("k")) * 1000)
+            result[label] = run_size(label, target, args)
+    finally:
+        log(f"total {pc() - t0:.1f} s")
+        result["loadavg_end"] = round(os.getloadavg()[0], 2)
+        bpy.ops.wm.read_factory_settings(use_empty=True)  # bpy 4.5 hangs at exit otherwise
+    print(json.dumps(result), flush=True)
+
+
+if __name__ == "__main__":
+    main()
