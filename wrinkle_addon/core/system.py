@@ -35,12 +35,12 @@ class Plan:
     n_verts: int
     verts: np.ndarray  # (U,) global index of each local vertex
     # Waters pull rows
-    pull_vert: np.ndarray
+    pull_vert: np.ndarray  # linear-muscle rows first, then sheet rows
     pull_muscle: np.ndarray
     pull_weight: np.ndarray
-    pull_linear: np.ndarray
-    pull_target: np.ndarray
-    pull_dir: np.ndarray
+    n_linear: int  # how many of the pull rows belong to linear muscles
+    pull_target: np.ndarray  # (n_linear, 3) attachment point of each linear row
+    pull_dir: np.ndarray  # (P - n_linear, 3) fixed direction of each sheet row
     muscle_pull: np.ndarray  # (M,) pull factor, 0 for wrinkles-only muscles
     # compression
     edges: np.ndarray  # (E', 2) local
@@ -75,9 +75,12 @@ def build_plan(rest, edges, tris, muscles):
     pull_vert = np.concatenate([f.aoi for f in fields] + [np.zeros(0, np.int32)])
     pull_muscle = np.repeat(np.arange(n_m), [len(f.aoi) for f in fields])
     pull_weight = np.concatenate([f.pull_weight for f in fields] + [np.zeros(0)])
-    pull_linear = np.array([m.sanitized().kind == LINEAR for m in muscles], bool)[pull_muscle]
-    pull_target = np.array([f.target for f in fields]).reshape(-1, 3)[pull_muscle]
-    pull_dir = np.array([f.pull_dir for f in fields]).reshape(-1, 3)[pull_muscle]
+    linear = np.array([m.sanitized().kind == LINEAR for m in muscles], bool)[pull_muscle]
+    order = np.argsort(~linear, kind="stable")  # linear rows first
+    pull_vert, pull_muscle, pull_weight = pull_vert[order], pull_muscle[order], pull_weight[order]
+    n_linear = int(linear.sum())
+    pull_target = np.array([f.target for f in fields]).reshape(-1, 3)[pull_muscle[:n_linear]]
+    pull_dir = np.array([f.pull_dir for f in fields]).reshape(-1, 3)[pull_muscle[n_linear:]]
     muscle_pull = np.array([0.0 if m.sanitized().wrinkles_only else m.sanitized().pull for m in muscles])
 
     # (muscle, region vertex) rows and their incident edges, eq. 10 weights
@@ -119,7 +122,7 @@ def build_plan(rest, edges, tris, muscles):
         pull_vert=local[pull_vert],
         pull_muscle=pull_muscle,
         pull_weight=pull_weight.astype(_F),
-        pull_linear=pull_linear,
+        n_linear=n_linear,
         pull_target=pull_target.astype(_F),
         pull_dir=pull_dir.astype(_F),
         muscle_pull=muscle_pull,
@@ -146,17 +149,17 @@ def waters_pull(plan, skin_local, contraction):
     if len(plan.pull_vert) == 0 or not gain.any():
         return out
     k = gain[plan.pull_muscle] * plan.pull_weight
-    rows = np.flatnonzero(k)
-    k, v = k[rows], plan.pull_vert[rows]
-    to = plan.pull_target[rows] - skin_local[v]
+    n = plan.n_linear
+    disp = np.empty((len(k), 3), dtype=_F)
+    # linear muscles: toward the attachment from where the skin is now, never past it
+    to = plan.pull_target - skin_local[plan.pull_vert[:n]]
     dist = np.sqrt(np.einsum("ij,ij->i", to, to))
-    lin = plan.pull_linear[rows]
-    # never pull a point past the attachment (Waters: k a r < D)
-    k = np.where(lin, np.minimum(k, 0.95 * dist), k)
-    direction = np.where(lin[:, None], to / np.maximum(dist, 1e-12)[:, None], plan.pull_dir[rows])
-    disp = direction * k[:, None]
+    scale = np.minimum(k[:n], 0.95 * dist) / np.maximum(dist, _F(1e-12))
+    np.multiply(to, scale[:, None], out=disp[:n])
+    # sheet muscles: parallel to the central fibre
+    np.multiply(plan.pull_dir, k[n:, None], out=disp[n:])
     for c in range(3):
-        out[:, c] = np.bincount(v, weights=disp[:, c], minlength=u)
+        out[:, c] = np.bincount(plan.pull_vert, weights=disp[:, c], minlength=u)
     return out
 
 
