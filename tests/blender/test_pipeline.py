@@ -254,3 +254,40 @@ def test_drivers_are_simple_expressions(tmp_path):
         assert bpy.data.objects["Frontalis"].wrinkle_muscle.contraction == pytest.approx(0.8)
     finally:
         prefs.use_scripts_auto_execute = old
+
+
+def test_bones_compressing_the_skin_raise_wrinkles():
+    """A wrinkles-only muscle, no contraction: an armature squashing the skin wrinkles it."""
+    scene = bpy.context.scene
+    face, muscle = scenes.wrinkled_face(wrinkles_only=True)
+    arm = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
+    scene.collection.objects.link(arm)
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    bone = arm.data.edit_bones.new("Brow")
+    bone.head, bone.tail = (0.0, 0.0, scenes.HEIGHT), (0.0, 0.0, scenes.HEIGHT + 0.02)
+    anchor = arm.data.edit_bones.new("Anchor")
+    anchor.head, anchor.tail = (0.0, 0.0, -0.02), (0.0, 0.0, 0.0)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    # the brow bone's weight falls from the top edge to the bottom, the still anchor takes
+    # the rest (armature weights are normalised): the skin is squashed toward the bottom
+    brow, still = face.vertex_groups.new(name="Brow"), face.vertex_groups.new(name="Anchor")
+    co = np.array([v.co[2] for v in face.data.vertices])
+    for i, z in enumerate(co):
+        w = float(np.clip(z / scenes.HEIGHT, 0.0, 1.0))
+        brow.add([i], w, "REPLACE")
+        still.add([i], 1.0 - w, "REPLACE")
+    mod = face.modifiers.new("Armature", "ARMATURE")
+    mod.object = arm
+    face.modifiers.move(len(face.modifiers) - 1, 0)  # deformers before the Wrinkles stage
+    scene.frame_set(1)
+    assert np.abs(scenes.offsets(face)).max() == 0.0
+    arm.pose.bones["Brow"].location = (0.0, -0.025, 0.0)  # the bone moves the skin down (bone Y)
+    arm.pose.bones["Brow"].keyframe_insert("location", frame=2)
+    arm.pose.bones["Brow"].location = (0.0, 0.0, 0.0)
+    arm.pose.bones["Brow"].keyframe_insert("location", frame=1)
+    scene.frame_set(2)
+    off = scenes.offsets(face)
+    assert pipeline.status(face) == ""
+    assert np.abs(off[:, 1]).max() > 1e-4  # wrinkles along the normal
+    assert np.all(off[:, [0, 2]] == 0)  # and no pull: the bone did the deforming
