@@ -30,11 +30,4 @@ def build(target_verts=40000, view="front"):
 
 
 if __name__ == "__main__":
-    import addon_utils  # importable once bpy is
-
-    addon_utils.enable("wrinkle_addon", default_set=True)
-    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
-    build()
-    target = sys.argv[-1] if sys.argv[-1].endswith(".blend") else "head.blend"
-    bpy.ops.wm.save_as_mainfile(filepath=target)
-    bpy.ops.wm.read_factory_settings(use_empty=True)
+    rigging.save_standalone(build, "head.blend")

@@ -1,7 +1,7 @@
 """Procedural human head for demos, tests and benchmarks. Pure NumPy, no bpy.
 
 Conventions: metres, Z up, the face looks toward -Y, the character's left is +X.
-The chin is near z = 0.02 and the crown at z = 0.23; the skull is 0.145 m wide.
+The chin is near z = 0.02 and the crown at z = 0.23; the skull is 0.15 m wide.
 
 How it is built
 ---------------
@@ -35,7 +35,7 @@ from functools import partial
 
 import numpy as np
 
-__all__ = ["make_head", "make_forehead_patch", "LANDMARK_NAMES", "ORIGIN"]
+__all__ = ["make_head", "make_forehead_patch", "head_field", "LANDMARK_NAMES", "ORIGIN"]
 
 LANDMARK_NAMES = (
     "glabella",
@@ -199,7 +199,7 @@ def head_field(p, detail=0.0):
     # Cranium: an egg, narrower at the forehead than over the parietals.
     widen = 1.0 + 0.06 * np.clip(y / 0.1, -1.0, 1.0)
     pc = np.stack([x / widen, y, z], axis=1)
-    f = _superellipsoid(pc, (0.0, 0.012, 0.136), (0.072, 0.099, 0.095), 2.5)
+    f = _superellipsoid(pc, (0.0, 0.012, 0.136), (0.075, 0.099, 0.095), 2.5)
 
     # Mid-face (maxilla, cheeks) and the mouth region.
     f = _smin(f, _ellipsoid(p, (0.0, -0.030, 0.090), (0.060, 0.067, 0.050)), 0.02)
@@ -207,9 +207,9 @@ def head_field(p, detail=0.0):
 
     # Mandible: chin bar, bodies to the jaw angles, rami up to the ears.
     jaw = _round_cone(m, (0.0, -0.068, 0.021), (0.008, -0.067, 0.022), 0.014, 0.014)
-    jaw = _smin(jaw, _round_cone(m, (0.008, -0.067, 0.022), (0.043, -0.008, 0.033),
+    jaw = _smin(jaw, _round_cone(m, (0.008, -0.067, 0.022), (0.041, -0.008, 0.033),
                                  0.014, 0.011), 0.01)
-    jaw = _smin(jaw, _round_cone(m, (0.043, -0.008, 0.033), (0.050, 0.012, 0.085),
+    jaw = _smin(jaw, _round_cone(m, (0.041, -0.008, 0.033), (0.049, 0.012, 0.085),
                                  0.011, 0.012), 0.01)
     f = _smin(f, jaw, 0.03)
 
@@ -541,8 +541,10 @@ def make_head(target_verts=40000):
     Returns a dict: ``positions`` (N, 3) float32, ``quads`` (F, 4) int32
     wound counter-clockwise seen from outside, ``corner_uvs`` (F, 4, 2)
     float32 and ``landmarks`` (name -> (3,) float32, each a vertex position).
-    ``target_verts`` sets the resolution (the count lands within a few
-    percent of it); at 40k the face edges are about 1.5 mm.
+    ``target_verts`` sets the resolution (the count lands within 1 % of it);
+    at the default 40k the forehead, brows, eyes, nose and mouth have edges of
+    1.6-1.9 mm (median), at 10k about 3.5 mm, at 200k about 0.8 mm.
+    Deterministic: the same target gives the same arrays.
     """
     cols, rows = _grid_size(float(target_verts))
     edge = 0.0016 * np.sqrt(40000.0 / float(target_verts))

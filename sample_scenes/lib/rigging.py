@@ -47,3 +47,18 @@ def key_shape_keys(face, frames):
         for name in names:
             blocks[name].value = values.get(name, 0.0)
             blocks[name].keyframe_insert("value", frame=frame)
+
+
+def save_standalone(build, default_name):
+    """Run a scene script on its own: build it into an empty scene and save a .blend
+    (the last command-line argument if it ends in .blend)."""
+    import sys
+
+    import addon_utils  # importable once bpy is
+
+    addon_utils.enable("wrinkle_addon", default_set=True)
+    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    build()
+    target = sys.argv[-1] if sys.argv[-1].endswith(".blend") else default_name
+    bpy.ops.wm.save_as_mainfile(filepath=target)
+    bpy.ops.wm.read_factory_settings(use_empty=True)  # avoids the bpy 4.5 exit hang

@@ -138,9 +138,10 @@ def add_portrait_rig(scene, target_object, view="front", frame_height=None, mate
                      collection=None, frame_scale=1.9):
     """Camera, lights and world for a head facing -Y, Z up.
 
-    The frame runs from the crown to below the chin: the nose tip is taken as
-    the most forward vertex near the midline, the crown as the highest vertex,
-    and ``frame_height`` (m, default 1.9 x crown-to-nose) sets the zoom.
+    The frame is centred a little below the eyes: the nose tip is taken as the
+    most forward vertex near the midline, the crown as the highest vertex. The
+    frame is ``frame_height`` metres tall, by default ``frame_scale`` times the
+    crown-to-nose height (1.9: the whole head; 1.3: forehead to mouth).
     ``view`` is ``'front'`` or ``'three_quarter'`` (35 degrees toward the
     character's left, +X). The key light is a sun from high above and to the
     character's right, grazing the forehead so horizontal furrows and the

@@ -112,3 +112,18 @@ def load_png(path):
     img.pixels.foreach_get(px)
     bpy.data.images.remove(img)
     return px.reshape(-1, 4)[:, :3]
+
+
+def animated_render_scene(last_frame):
+    """A wrinkled face whose shape key and contraction both ramp 0 -> 1 over frames
+    1..last_frame, with a camera, a raking light and small Cycles renders."""
+    scene = bpy.context.scene
+    face, muscle = wrinkled_face()
+    animate_shape_key(face, [(1, 0.0), (last_frame, 1.0)])
+    for frame, value in ((1, 0.0), (last_frame, 1.0)):
+        muscle.wrinkle_muscle.contraction = value
+        muscle.keyframe_insert("wrinkle_muscle.contraction", frame=frame)
+    add_camera_and_light(scene)
+    setup_cycles(scene)
+    scene.frame_start, scene.frame_end = 1, last_frame
+    return scene, face

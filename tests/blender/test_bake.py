@@ -37,15 +37,7 @@ FARM_SCRIPT = textwrap.dedent("""
 
 
 def test_bake_renders_without_the_addon(tmp_path):
-    scene = bpy.context.scene
-    face, muscle = scenes.wrinkled_face()
-    scenes.animate_shape_key(face, [(1, 0.0), (3, 1.0)])
-    for frame, value in ((1, 0.0), (3, 1.0)):
-        muscle.wrinkle_muscle.contraction = value
-        muscle.keyframe_insert("wrinkle_muscle.contraction", frame=frame)
-    scenes.add_camera_and_light(scene)
-    scenes.setup_cycles(scene)
-    scene.frame_start, scene.frame_end = 1, 3
+    scene, face = scenes.animated_render_scene(3)
     truth_pos, truth_img = {}, {}
     for f in (1, 2, 3):
         scene.frame_set(f)

@@ -25,16 +25,7 @@ def _static_copy_render(scene, face, path):
 
 @pytest.fixture
 def animated_scene():
-    scene = bpy.context.scene
-    face, muscle = scenes.wrinkled_face()
-    scenes.animate_shape_key(face, [(1, 0.0), (4, 1.0)])
-    for frame, value in ((1, 0.0), (4, 1.0)):
-        muscle.wrinkle_muscle.contraction = value
-        muscle.keyframe_insert("wrinkle_muscle.contraction", frame=frame)
-    scenes.add_camera_and_light(scene)
-    scenes.setup_cycles(scene)
-    scene.frame_start, scene.frame_end = 1, 4
-    return scene, face
+    return scenes.animated_render_scene(4)
 
 
 def test_background_renders_are_frame_accurate(animated_scene, tmp_path):
