@@ -156,7 +156,13 @@ def enabled_faces(scene):
 
 
 def update_scene(scene, depsgraph, only_if_changed=False):
-    for ob in enabled_faces(scene):
+    faces = enabled_faces(scene)
+    meshes = [ob.data for ob in faces]
+    for ob in faces:
+        if meshes.count(ob.data) > 1:  # linked duplicates would overwrite each other
+            _set_status(ob, f'"{ob.name}" shares its mesh with another face with wrinkles: '
+                            "make the mesh single-user (Object > Relations > Make Single User)")
+            continue
         try:
             update_face(ob, depsgraph, only_if_changed)
         except Exception as exc:  # a handler must never raise into Blender
@@ -209,6 +215,9 @@ def on_depsgraph_update_post(scene, depsgraph=None):
     # write does not loop.
     if bpy.app.background or _rendering():
         return
+    screen = getattr(bpy.context, "screen", None)
+    if screen is not None and screen.is_animation_playing:
+        return  # playback is handled frame by frame
     update_scene(scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
 
 

@@ -162,3 +162,13 @@ def test_handler_never_raises_on_broken_state():
     bpy.ops.wrinkle.enable()
     _frames(face, (4,))
     assert pipeline.status(face) == ""
+
+
+def test_linked_duplicates_sharing_a_mesh_get_a_message():
+    face, _muscle = scenes.wrinkled_face(contraction=1.0)
+    twin = bpy.data.objects.new("Twin", face.data)
+    bpy.context.scene.collection.objects.link(twin)
+    bpy.context.view_layer.objects.active = twin
+    bpy.ops.wrinkle.enable()
+    _frames(face)
+    assert "shares its mesh" in pipeline.status(face) and "shares its mesh" in pipeline.status(twin)
