@@ -298,10 +298,16 @@ def build_muscle_set(context, face, landmarks):
                 loc = Vector((x, float(landmarks["glabella"][1]), z))
             world.append(mw @ loc)
         placed.append((role, side, kind, world))
+    # The sheets of one side share one length Ls, so eq. 7 puts their furrows in phase
+    # where they overlap instead of beating against each other.
+    spans = [((w[2] + w[3]) / 2 - (w[0] + w[1]) / 2).length for _r, _s, k, w in placed if k == "SHEET"]
+    sheet_length = 1.3 * max(spans) if spans else None
     names = {r: n for r, n, _k in presets.MUSCLES}
     made = []
     for role, side, kind, world in placed:
         params = dict(presets.ROLE_PARAMS.get(role, {}))
+        if kind == "SHEET":
+            params["length"] = sheet_length
         if "angle" in params:
             params["angle"] = math.radians(params["angle"])
         ob = muscle_objects.create(context, face, kind, world, name=f"{names[role]}.{side}", **params)
