@@ -61,7 +61,7 @@ def signature(muscle_ob):
     """Everything static about a muscle, to detect when the cached plan is stale."""
     s = muscle_ob.wrinkle_muscle
     return (
-        muscle_ob.name, s.kind, tuple(world_points(muscle_ob).round(9).ravel()),
+        muscle_ob.name, s.kind, world_points(muscle_ob).tobytes(),
         s.radius, s.angle, s.angle_c, s.length, s.width, s.width_c, s.depth, s.lambda_w,
         s.n_wrinkles, s.k0, s.alpha, s.pull, s.wrinkles_only, s.fade_ends,
     )

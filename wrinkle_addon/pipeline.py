@@ -90,7 +90,7 @@ def _topology(state, me):
 
 
 def _plan(state, face, muscles):
-    sigs = (tuple(np.array(face.matrix_world).ravel()),) + tuple(
+    sigs = (np.array(face.matrix_world).tobytes(),) + tuple(
         muscle_objects.signature(m) for m in muscles)
     if state.plan is not None and sigs == state.sigs:
         return state.plan
