@@ -88,3 +88,50 @@ def test_add_muscle_at_cursor_gets_visible_defaults():
     bpy.context.scene.frame_set(2)
     off = scenes.offsets(face)
     assert np.abs(off).max() > 1e-3  # the first try gives a visible result
+
+
+class _Event:
+    def __init__(self, kind, value="PRESS"):
+        self.type, self.value = kind, value
+        self.mouse_region_x = self.mouse_region_y = 0
+
+
+class _Picker:
+    """Stands in for the running operator: the modal state machine without a window."""
+
+    def __init__(self, kind, hits):
+        from wrinkle_addon.operators import WRINKLE_OT_add_muscle
+
+        self._cls = WRINKLE_OT_add_muscle
+        self.kind, self._hits = kind, list(hits)
+        self._picked, self._needed = [], 2 if kind == "LINEAR" else 4
+        self.points, self.use_points, self.name, self.reports, self.executed = None, False, "", [], False
+
+    def _hint(self):
+        return self._cls._hint(self)
+
+    def _ray_cast(self, context, event):
+        return self._hits.pop(0)
+
+    def report(self, level, msg):
+        self.reports.append(msg)
+
+    def execute(self, context):
+        self.executed = True
+        return {"FINISHED"}
+
+    def modal(self, context, event):
+        return self._cls.modal(self, context, event)
+
+
+def test_pick_on_surface_state_machine():
+    context = bpy.context
+    picker = _Picker("SHEET", [(0, 0, 1), None, (1, 0, 1), (1, 0, 0), (0, 0, 0)])
+    assert picker.modal(context, _Event("MOUSEMOVE")) == {"PASS_THROUGH"}
+    results = [picker.modal(context, _Event("LEFTMOUSE")) for _ in range(5)]
+    assert results[:4] == [{"RUNNING_MODAL"}] * 4 and results[4] == {"FINISHED"}
+    assert picker.reports == ["Click on the face's surface"]  # the miss was reported, not counted
+    assert picker.use_points and list(picker.points) == [0, 0, 1, 1, 0, 1, 1, 0, 0, 0, 0, 0]
+    assert picker.executed
+    cancel = _Picker("LINEAR", [])
+    assert cancel.modal(context, _Event("ESC")) == {"CANCELLED"} and not cancel.executed
