@@ -7,11 +7,19 @@
   vertically (the brows move up ~6 mm, the hairline does not move).
 * An armature with a "Jaw" bone, weighted to the lower face by distance from
   the chin, opens the jaw.
+* ``add_arkit_keys`` (``--rig arkit``): a production-like face with 52 shape
+  keys (the ARKit blendshape count): "BrowsUp" plus 51 regional keys, each a
+  smooth Gaussian bump of 2-5 mm over a different region of the face front,
+  all animated with smooth curves that never reach 0 (Blender skips keys whose
+  value is 0, so every frame blends all 52).
 * ``build_tension_group`` is the native Geometry Nodes edge-length-ratio setup
   users build today to drive wrinkle maps.
 
 Frame layout (the same for every benchmark): BrowsUp 0 -> 1 -> 0 -> 1 at
-frames 1, 21, 41, 61; the jaw 0 -> 15 deg -> 0 -> 15 deg at 1, 16, 31, 46.
+frames 1, 21, 41, 61 (0.05 instead of 0 in the arkit rig); the jaw 0 -> 15
+deg -> 0 -> 15 deg at 1, 16, 31, 46; the arkit regional keys keyed every 10
+frames from 1 to 61 on 0.55 + 0.45 sin(2 pi (f - 1) / P + phase), a different
+period P (30-50 frames) and phase per key.
 """
 
 import math
@@ -94,8 +102,11 @@ def make_face_object(name, head):
 # ---------------------------------------------------------------------------
 # Rig: shape key + jaw bone
 # ---------------------------------------------------------------------------
-def add_brows_up(ob, lm, amount=0.006):
-    """Shape key "BrowsUp": brows up by ``amount``, forehead compressed, hairline fixed."""
+def add_brows_up(ob, lm, amount=0.006, low=0.0):
+    """Shape key "BrowsUp": brows up by ``amount``, forehead compressed, hairline fixed.
+
+    Keyed low -> 1 -> low -> 1 at frames 1, 21, 41, 61.
+    """
     me = ob.data
     n = len(me.vertices)
     rest = np.empty(n * 3, np.float32)
@@ -116,15 +127,81 @@ def add_brows_up(ob, lm, amount=0.006):
     dz = amount * up * side * front
     co = rest.copy()
     co[:, 2] += dz.astype(np.float32)
+    _set_key_co(kb, co)
+    kb.value = 0.0
+    for f, v in ((1, low), (21, 1.0), (41, low), (61, 1.0)):
+        kb.value = v
+        kb.keyframe_insert("value", frame=f)
+    return kb, int(np.count_nonzero(dz))
+
+
+ARKIT_KEYS = 52  # ARKit's blendshape count
+_AXES = np.array([(0.0, -1.0, 0.0), (0.0, 0.0, 1.0), (1.0, 0.0, 0.0),
+                  (0.0, 1.0, 0.0), (0.0, 0.0, -1.0), (-1.0, 0.0, 0.0)])
+
+
+def _set_key_co(kb, co):
     if hasattr(kb, "points"):  # the fast path (BLENDER_NOTES.md)
         kb.points.foreach_set("co", co.ravel())
     else:
         kb.data.foreach_set("co", co.ravel())
-    kb.value = 0.0
-    for f, v in ((1, 0.0), (21, 1.0), (41, 0.0), (61, 1.0)):
-        kb.value = v
-        kb.keyframe_insert("value", frame=f)
-    return kb, int(np.count_nonzero(dz))
+
+
+def add_arkit_keys(ob, lm, n_keys=ARKIT_KEYS, seed=52):
+    """A production-like facial rig: ``n_keys`` shape keys, all animated, none ever 0.
+
+    Key 0 is "BrowsUp" (as in the light rig, keyed 0.05 -> 1 -> 0.05 -> 1 so it
+    never drops out).  Keys 1.. are "Region_NN": a Gaussian bump
+    ``a * exp(-d^2 / 2 sigma^2)`` (cut to 0 below 1e-3 of its peak) around a
+    centre on the face front, with ``a`` 2-5 mm and ``sigma`` 6-9 mm, moving
+    along a direction that cycles out, up, sideways, in, down, the other way.
+    Centres are spread over the face front (|x| up to the cheekbones, chin to
+    hairline, front half of the head) by farthest-point sampling from a seeded
+    start; everything comes from ``np.random.default_rng(seed)``, so the rig
+    is deterministic.  Returns (key blocks, vertices moved by each key).
+    """
+    kb0, n0 = add_brows_up(ob, lm, low=0.05)
+    me = ob.data
+    n = len(me.vertices)
+    rest = np.empty(n * 3, np.float32)
+    me.attributes["position"].data.foreach_get("vector", rest)
+    rest = rest.reshape(-1, 3)
+    pos = rest.astype(np.float64)
+    rng = np.random.default_rng(seed)
+    half_w = abs(float(lm["cheekbone_L"][0]))
+    z_lo, z_hi = float(lm["chin"][2]) + 0.004, float(lm["hairline_center"][2]) - 0.008
+    y_front = float(lm["cheekbone_L"][1]) + 0.03
+    cand = np.flatnonzero((np.abs(pos[:, 0]) <= half_w) & (pos[:, 2] >= z_lo) & (pos[:, 2] <= z_hi)
+                          & (pos[:, 1] <= y_front))
+    if len(cand) < n_keys:
+        raise RuntimeError(f"face front has {len(cand)} vertices, need {n_keys - 1} bump centres")
+    cpos = pos[cand]
+    first = int(rng.integers(len(cand)))
+    centres = [first]
+    d2 = np.einsum("ij,ij->i", cpos - cpos[first], cpos - cpos[first])
+    for _ in range(n_keys - 2):  # farthest-point sampling: evenly spread centres
+        nxt = int(np.argmax(d2))
+        centres.append(nxt)
+        d2 = np.minimum(d2, np.einsum("ij,ij->i", cpos - cpos[nxt], cpos - cpos[nxt]))
+    keys, moved = [kb0], [n0]
+    frames = np.arange(1, 62, 10)
+    for i, c in enumerate(centres, start=1):
+        amp = rng.uniform(0.002, 0.005)
+        sigma = rng.uniform(0.006, 0.009)
+        period = rng.uniform(30.0, 50.0)
+        phase = 2.0 * np.pi * i / (n_keys - 1) + rng.uniform(-0.3, 0.3)
+        diff = pos - cpos[c]
+        w = np.exp(-np.einsum("ij,ij->i", diff, diff) / (2.0 * sigma * sigma))
+        w[w < 1e-3] = 0.0
+        kb = ob.shape_key_add(name=f"Region_{i:02d}", from_mix=False)
+        co = rest + (amp * w[:, None] * _AXES[(i - 1) % len(_AXES)]).astype(np.float32)
+        _set_key_co(kb, co)
+        for f in frames:
+            kb.value = float(0.55 + 0.45 * np.sin(2.0 * np.pi * (f - 1) / period + phase))
+            kb.keyframe_insert("value", frame=int(f))
+        keys.append(kb)
+        moved.append(int(np.count_nonzero(w)))
+    return keys, moved
 
 
 def add_jaw_rig(ob, lm, scene):

@@ -2,13 +2,25 @@
 """Per-frame cost of the wrinkle pipeline against Blender's own evaluation.
 
 Run:  .venv45/bin/python benchmarks/frame_update.py   (or .venv52)
-      options: --sizes 10k,50k  --frames 30  --warm 5
+      options: --rig light|arkit  --sizes 10k,50k  --frames 30  --warm 5
 
 For heads of about 10k, 50k and 200k vertices (``sample_scenes/lib/headgen``)
-the script builds a facial rig like a production one: a "BrowsUp" shape key
-(brows up 6 mm, forehead compressed, animated 0 -> 1 -> 0 -> 1) and an
-armature whose "Jaw" bone (lower face weighted by distance from the chin)
-opens 0 -> 15 deg -> 0 -> 15 deg.  Every timed frame is a new frame, after
+the script builds one of two facial rigs (``--rig``):
+
+``light`` (the default)
+    A "BrowsUp" shape key (brows up 6 mm, forehead compressed, animated
+    0 -> 1 -> 0 -> 1) and an armature whose "Jaw" bone (lower face weighted by
+    distance from the chin) opens 0 -> 15 deg -> 0 -> 15 deg.
+``arkit``
+    A production-like face: 52 shape keys (the ARKit blendshape count), i.e.
+    "BrowsUp" plus 51 regional keys, each a smooth Gaussian bump of 2-5 mm
+    (sigma 6-9 mm) over a different region of the face front, directions
+    alternating, built deterministically (fixed seed) in NumPy
+    (``_bench_scene.add_arkit_keys``).  All 52 are keyframed on smooth curves
+    with different periods and phases that never reach 0 (Blender skips keys at
+    0), so every frame blends all of them; plus the same Jaw bone.
+
+Every timed frame is a new frame, after
 ``--warm`` warm-up frames, timed over ``--frames`` frames
 (``time.perf_counter``).  Every ``*_ms`` is the MEDIAN over the frames (this
 machine is shared; means are in ``*_mean_ms`` where useful).  What each number
@@ -54,6 +66,26 @@ contains:
     evaluated_depsgraph_get + read positions).  ``frame_set`` evaluates, runs
     ``frame_change_post`` (our handler writes and tags), then evaluates a
     second pass.  ``playback_ratio`` = playback_ms / eval_ms.
+
+    Why ``playback_ratio`` cannot go much below 2 with this write-back design:
+    the handler runs after Blender has evaluated the frame, and writing
+    ``wrinkle_offset`` tags the mesh, so the same frame_set evaluates the face's
+    whole modifier stack (shape keys, armature, Wrinkles GN stage) a second
+    time.  A frame therefore costs playback ~= eval_stage_ms (first pass) +
+    update_face_ms (handler) + reeval_ms (second pass); the parts add up to
+    within ~0.2 ms of the measured playback_ms.  Since reeval_ms >= eval_ms,
+    playback_ratio >= 2 + (handler + GN stage) / eval, with handler =
+    update_face_ms and GN stage = eval_stage_ms - eval_ms.  The second pass is
+    not cheaper than the first: measured at 50k (2 cores, load ~1.1-1.5),
+    reeval_ms / eval_ms is 0.78 / 0.53 (bpy 4.5) and 0.72 / 0.49 (5.2) with the
+    light rig, 8.99 / 6.85 (4.5) and 6.00 / 4.71 (5.2) with the 52-key arkit
+    rig.  (A separate probe, with no wrinkles stage at all, found re-evaluating
+    the same frame with the arkit rig costs 1.2-1.35x the frame's own
+    evaluation.)  So the ratio tends to 2 from above as the rig gets heavier
+    (arkit, 50k: 2.83 on 4.5, 3.00 on 5.2) and is large for a light rig only
+    because eval_ms is tiny (light, 50k: 8.4 and 8.7).  Getting below 2 needs
+    the offsets computed inside the single evaluation (in the modifier stack),
+    not written back from a frame handler.
 ``eval_stage_ms``
     frame_set + read with the Wrinkles modifier present but the handler
     removed: what the GN output stage alone costs inside the normal evaluation.
@@ -129,8 +161,9 @@ def mean_ms(values):
 
 
 class Bench:
-    def __init__(self, target, warm, frames):
+    def __init__(self, target, warm, frames, rig="light"):
         self.target = target
+        self.rig_kind = rig
         self.warm = list(range(1, warm + 1))
         self.frames = list(range(warm + 1, warm + 1 + frames))
         self.scene = bpy.context.scene
@@ -146,10 +179,31 @@ class Bench:
         self.ob = ob
         self.n = len(ob.data.vertices)
         self.pos_buf = np.empty(self.n * 3, _F)
-        _kb, n_key = bs.add_brows_up(ob, self.landmarks)
+        if self.rig_kind == "arkit":
+            keys, moved = bs.add_arkit_keys(ob, self.landmarks)
+            keyed = f"{len(keys)} shape keys (BrowsUp + {len(keys) - 1} regional), verts moved per " \
+                    f"key median {int(np.median(moved))} (min {min(moved)}, max {max(moved)})"
+        else:
+            _kb, n_key = bs.add_brows_up(ob, self.landmarks)
+            keyed = f"BrowsUp moves {n_key} verts"
         self.rig, n_jaw = bs.add_jaw_rig(ob, self.landmarks, self.scene)
-        log(f"  head ({source}): {self.n} verts, {len(ob.data.polygons)} faces; BrowsUp moves "
-            f"{n_key} verts, Jaw group {n_jaw} verts; built in {pc() - t:.1f} s")
+        log(f"  head ({source}): {self.n} verts, {len(ob.data.polygons)} faces; {keyed}, "
+            f"Jaw group {n_jaw} verts; built in {pc() - t:.1f} s")
+        if self.rig_kind == "arkit":
+            self.check_keys_live()
+
+    def check_keys_live(self):
+        """Untimed: every shape key is non-zero on every warm-up and timed frame."""
+        kbs = self.ob.data.shape_keys.key_blocks[1:]
+        lo = float("inf")
+        zero_frames = 0
+        for f in self.warm + self.frames:
+            self.scene.frame_set(f)
+            vals = [kb.value for kb in kbs]
+            lo = min(lo, min(vals))
+            zero_frames += any(v <= 0.0 for v in vals)
+        log(f"  {len(kbs)} animated keys: min value over frames {lo:.3f}, "
+            f"frames with a key at 0: {zero_frames}/{len(self.warm + self.frames)}")
 
     def read_positions(self, dg):
         ev = self.ob.evaluated_get(dg).data
@@ -465,7 +519,7 @@ def run_size(label, target, args):
     t0 = pc()
     bs.clear_scene()
     pipeline._cache.clear()
-    b = Bench(target, args.warm, args.frames)
+    b = Bench(target, args.warm, args.frames, args.rig)
     b.build()
     r = {"verts": b.n, "head": b.source}
     r.update(b.measure_eval_and_tension())
@@ -500,14 +554,16 @@ def tree_fingerprint():
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--rig", choices=("light", "arkit"), default="light",
+                    help="light: BrowsUp + jaw bone; arkit: 52 animated shape keys + jaw bone")
     ap.add_argument("--sizes", default="10k,50k,200k")
     ap.add_argument("--frames", type=int, default=40)
     ap.add_argument("--warm", type=int, default=5)
     ap.add_argument("--profile-at", default="50k")
     args = ap.parse_args()
-    log(f"bpy {bpy.app.version_string}, numpy {np.__version__}, {os.cpu_count()} cpus")
+    log(f"bpy {bpy.app.version_string}, numpy {np.__version__}, {os.cpu_count()} cpus, rig {args.rig}")
     t0 = pc()
-    result = {"bpy": bpy.app.version_string, "tree": tree_fingerprint(),
+    result = {"bpy": bpy.app.version_string, "rig": args.rig, "tree": tree_fingerprint(),
               "loadavg_start": round(os.getloadavg()[0], 2)}
     try:
         for label in args.sizes.split(","):
