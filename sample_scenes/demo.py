@@ -25,7 +25,7 @@ import bpy  # noqa: E402, I001  (bpy first: it makes addon_utils importable)
 import addon_utils  # noqa: E402
 import numpy as np  # noqa: E402
 
-from sample_scenes import forehead_patch, head, ict_head  # noqa: E402
+from sample_scenes import forehead_patch, head, scanned_head  # noqa: E402
 from sample_scenes.lib import scene_setup  # noqa: E402
 
 _T0 = time.perf_counter()
@@ -130,10 +130,10 @@ def main(argv=None):
     out.mkdir(parents=True, exist_ok=True)
     addon_utils.enable("wrinkle_addon", default_set=True)
     jobs = [("forehead_patch", forehead_patch.build), ("head", head.build)]
-    if ict_head.available():
-        jobs.append(("ict_head", ict_head.build))
+    if scanned_head.available():
+        jobs.append(("scanned_head", scanned_head.build))
     else:
-        log(f"skipping the ICT head: {ict_head.DATA} not found")
+        log(f"skipping the ICT head: {scanned_head.DATA} not found")
     rows = []
     for i, (name, builder) in enumerate(jobs, 1):
         log(f"scene {i}/{len(jobs)}: {name}")
