@@ -225,6 +225,12 @@ class WRINKLE_OT_add_muscle(bpy.types.Operator):
         return tuple(face.matrix_world @ loc) if ok else None
 
 
+def _guess_landmarks(face):
+    """Face-local landmark guesses from the face's bounding box."""
+    bb = np.array([tuple(v) for v in face.bound_box])
+    return presets.estimate_landmarks(bb.min(axis=0), bb.max(axis=0))
+
+
 def _project_front(face, dg, x, z):
     """Project a face-local (x, z) onto the front of the surface by a ray along +Y."""
     ev = face.evaluated_get(dg)
@@ -245,8 +251,7 @@ class WRINKLE_OT_add_landmarks(bpy.types.Operator):
 
     def execute(self, context):
         face = _face(context)
-        bb = np.array([tuple(v) for v in face.bound_box])
-        guess = presets.estimate_landmarks(bb.min(axis=0), bb.max(axis=0))
+        guess = _guess_landmarks(face)
         dg = context.evaluated_depsgraph_get()
         located = {key: _project_front(face, dg, guess[key][0], guess[key][2]) or Vector(guess[key])
                    for key, _label, _desc in presets.LANDMARKS}  # before any data changes
@@ -333,8 +338,7 @@ class WRINKLE_OT_add_muscle_set(bpy.types.Operator):
         landmarks = _landmark_positions(face)
         guessed = landmarks is None
         if guessed:
-            bb = np.array([tuple(v) for v in face.bound_box])
-            landmarks = presets.estimate_landmarks(bb.min(axis=0), bb.max(axis=0))
+            landmarks = _guess_landmarks(face)
         existing = {(r.object.wrinkle_muscle.role, r.object.wrinkle_muscle.side)
                     for r in face.wrinkles.muscles if r.object is not None}
         if any(role != "CUSTOM" for role, _s in existing):

@@ -34,19 +34,18 @@ def edge_lengths(positions, edges):
 
 
 def vertex_incidence(edges, n_verts):
-    """CSR incidence of vertices to edges: ``(offsets, edge_ids, other_vertex)``.
+    """CSR incidence of vertices to edges: ``(offsets, edge_ids)``.
 
     The edges incident to vertex ``v`` are ``edge_ids[offsets[v]:offsets[v+1]]``.
     """
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
-    verts = np.concatenate([edges[:, 0], edges[:, 1]])
-    other = np.concatenate([edges[:, 1], edges[:, 0]])
-    ids = np.concatenate([np.arange(len(edges)), np.arange(len(edges))])
+    verts = edges.T.ravel()  # all first end points, then all second ones
+    ids = np.tile(np.arange(len(edges)), 2)
     order = np.argsort(verts, kind="stable")
     counts = np.bincount(verts, minlength=n_verts)
     offsets = np.zeros(n_verts + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
-    return offsets, ids[order], other[order]
+    return offsets, ids[order]
 
 
 def gather_incident(offsets, values, verts):

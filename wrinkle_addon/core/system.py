@@ -91,7 +91,7 @@ def build_plan(rest, edges, tris, muscles):
     keep = row_amp != 0.0
     row_vert, row_muscle, row_amp, row_cdir = row_vert[keep], row_muscle[keep], row_amp[keep], row_cdir[keep]
 
-    offsets, inc_edge, _ = mesh.vertex_incidence(edges, n)
+    offsets, inc_edge = mesh.vertex_incidence(edges, n)
     pair_row, pair_edge = mesh.gather_incident(offsets, inc_edge, row_vert)
     rest_len = mesh.edge_lengths(rest, edges)
     # Rest lengths exactly as the per-frame path computes lengths (float32), so that the
@@ -206,7 +206,7 @@ def evaluate(plan, skin, contraction, strength=1.0, out=None):
     return out
 
 
-def refine_edges(rest, edges, plan_or_muscles, factor=4.0):
+def refine_edges(rest, edges, muscles, factor=4.0):
     """Edges to split so every half cycle ``u`` spans at least ``factor`` edges.
 
     Returns the indices of edges touching a wrinkling region whose rest length
@@ -216,7 +216,7 @@ def refine_edges(rest, edges, plan_or_muscles, factor=4.0):
     rest = np.asarray(rest, dtype=np.float64).reshape(-1, 3)
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
     limit = np.full(len(rest), np.inf)
-    for m in plan_or_muscles:
+    for m in muscles:
         f = muscle_field(rest, m)
         if len(f.region) and f.half_cycle > 0:
             np.minimum.at(limit, f.region, f.half_cycle / factor)
