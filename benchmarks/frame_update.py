@@ -40,52 +40,34 @@ contains:
     ``tension``.  ``gn_tension_ms`` = median frame time with the modifier (same
     loop as ``eval_ms``, plus reading ``tension``) minus the median without.
     Base and tension blocks are interleaved (A B A B) to cancel drift.
-``read_ms`` / ``compute_ms`` / ``write_ms`` (the wrinkle stage, split by hand
+``read_ms`` / ``compute_ms`` / ``write_ms`` (the handler's parts, timed by hand
     with the add-on's handler removed, calling the same functions it calls):
     ``read_ms``: ``meshio.read_vector_prefix`` of ``wrinkle_skin`` from the
     evaluated mesh.  ``compute_ms``: ``core.system.evaluate``.  ``write_ms``:
-    ``meshio.write_vectors`` (``foreach_set`` of ``wrinkle_offset``) +
-    ``me.update_tag()`` + the re-evaluation it triggers, timed as the next
-    ``evaluated_depsgraph_get()`` + reading positions.  That re-evaluation
-    runs the face's whole modifier stack again (shape keys, armature, the
-    Wrinkles GN stage), so ``write_ms`` grows with the rig, not with the
-    wrinkles; ``write_set_ms`` and ``reeval_ms`` give the two parts.
-``stage_ms``
-    read + compute + write.  ``gn_ratio`` = stage_ms / gn_tension_ms.  This is
-    fair in the sense that both numbers are "what the wrinkle computation adds
-    to a frame", but note the GN tension computes only the tension, while the
-    stage also computes muscle pull, directional compression, heights and
-    normals, and pays the extra re-evaluation.
+    ``pipeline._write_in_place``: the check that Blender re-evaluated the
+    face, the ``foreach_set`` of ``skin + offset`` into the evaluated mesh's
+    positions (and its ``wrinkle_offset``), and ``Mesh.update()`` so its
+    normals are recomputed.  No second evaluation follows.
 ``update_face_ms`` / ``overhead_ms``
-    The whole ``pipeline.update_face`` call (checks, topology key, rest-position
-    comparison, muscle signatures, contraction gathering, evaluate, write,
-    input snapshot) without the re-evaluation; ``overhead_ms`` =
-    update_face_ms - (read + compute + write_set).
-``playback_ms``
-    The real thing: the handler active, same loop as ``eval_ms`` (frame_set +
-    evaluated_depsgraph_get + read positions).  ``frame_set`` evaluates, runs
-    ``frame_change_post`` (our handler writes and tags), then evaluates a
-    second pass.  ``playback_ratio`` = playback_ms / eval_ms.
-
-    Why ``playback_ratio`` cannot go much below 2 with this write-back design:
-    the handler runs after Blender has evaluated the frame, and writing
-    ``wrinkle_offset`` tags the mesh, so the same frame_set evaluates the face's
-    whole modifier stack (shape keys, armature, Wrinkles GN stage) a second
-    time.  A frame therefore costs playback ~= eval_stage_ms (first pass) +
-    update_face_ms (handler) + reeval_ms (second pass); the parts add up to
-    within ~0.2 ms of the measured playback_ms.  Since reeval_ms >= eval_ms,
-    playback_ratio >= 2 + (handler + GN stage) / eval, with handler =
-    update_face_ms and GN stage = eval_stage_ms - eval_ms.  The second pass is
-    not cheaper than the first: measured at 50k (2 cores, load ~1.1-1.5),
-    reeval_ms / eval_ms is 0.78 / 0.53 (bpy 4.5) and 0.72 / 0.49 (5.2) with the
-    light rig, 8.99 / 6.85 (4.5) and 6.00 / 4.71 (5.2) with the 52-key arkit
-    rig.  (A separate probe, with no wrinkles stage at all, found re-evaluating
-    the same frame with the arkit rig costs 1.2-1.35x the frame's own
-    evaluation.)  So the ratio tends to 2 from above as the rig gets heavier
-    (arkit, 50k: 2.83 on 4.5, 3.00 on 5.2) and is large for a light rig only
-    because eval_ms is tiny (light, 50k: 8.4 and 8.7).  Getting below 2 needs
-    the offsets computed inside the single evaluation (in the modifier stack),
-    not written back from a frame handler.
+    The whole ``pipeline.update_scene(in_place=True)`` call, as the viewport
+    handler makes it (scene scan, checks, topology key, rest-position comparison, muscle
+    signatures, contraction gathering, evaluate, write);
+    ``overhead_ms`` = update_face_ms - (read + compute + write).
+``writeback_handler_ms`` / ``writeback_reeval_ms``
+    The other path, taken by render and export frames: ``update_scene`` writing
+    ``wrinkle_offset`` into the original mesh and tagging it, then the second
+    evaluation of the whole modifier stack that the tag causes.  Reported for
+    comparison; it does not enter playback.
+``playback_ms`` / ``playback_base_ms`` / ``stage_ms``
+    The same loop as ``eval_ms`` (frame_set + evaluated_depsgraph_get + reading
+    positions) with wrinkles (stage modifier on, handler in) and without (stage
+    off, handler out), interleaved A B A B like the tension measurement.
+    ``stage_ms`` = playback_ms - playback_base_ms: what wrinkles add to a
+    frame, measured exactly like ``gn_tension_ms`` (the GN stage inside the
+    evaluation, the handler, the in-place write).  ``gn_ratio`` = stage_ms /
+    gn_tension_ms; ``playback_ratio`` = playback_ms / playback_base_ms.
+    ``in_place_frames`` counts checked frames on which the original mesh was
+    not written (so there was no second evaluation).
 ``eval_stage_ms``
     frame_set + read with the Wrinkles modifier present but the handler
     removed: what the GN output stage alone costs inside the normal evaluation.
@@ -98,8 +80,8 @@ contains:
     around.  ``compute_ms`` (measured right after Blender evaluated the frame)
     is the realistic one.
 ``evaluate_steps_ms``
-    ``core.system.evaluate`` replayed step by step (a copy of its code, checked
-    against the real one for equality) to show where its time goes.
+    ``core.system.evaluate`` replayed step by step (calling its own parts,
+    checked against the real one for equality) to show where its time goes.
 
 Sanity checks printed as it runs: region sizes and bounding boxes per
 muscle, offsets changing frame to frame, and evaluated position ==
@@ -289,8 +271,8 @@ class Bench:
         plan = self.state.plan
         log(f"  wrinkles on, {len(self.muscles)} muscles, plan built, in {pc() - t:.1f} s; "
             f"region_verts {len(plan.verts)} ({100 * len(plan.verts) / self.n:.1f} %), "
-            f"rows {len(plan.row_vert)}, pairs {len(plan.pair_row)}, edges {len(plan.edges)}, "
-            f"tris {len(plan.tris)}, pull rows {len(plan.pull_vert)}")
+            f"rows {len(plan.row_vert)}, pairs {len(plan.pair_edge)}, edges {plan.edges.shape[1]}, "
+            f"tris {plan.tris.shape[1]}, pull rows {len(plan.pull_vert)}")
         if pipeline.status(self.ob):
             log(f"  status: {pipeline.status(self.ob)}")
         return plan
@@ -325,14 +307,15 @@ class Bench:
         return out
 
     def measure_split(self, plan):
-        ob, me = self.ob, self.ob.data
+        """The handler's parts, timed by hand with the handler removed (same calls it makes)."""
+        ob = self.ob
         handlers = bpy.app.handlers.frame_change_post
         handlers.remove(pipeline.on_frame_change_post)
         try:
             live = muscle_objects.live_muscles(ob)
             strength = ob.wrinkles.strength
             st = self.state
-            rd, cp, ws, re_, base = [], [], [], [], []
+            rd, cp, wr, base, uf, wb, rev = [], [], [], [], [], [], []
 
             def one(f, record):
                 t0 = pc()
@@ -347,72 +330,90 @@ class Bench:
                 t3 = pc()
                 out = system.evaluate(plan, skin, contraction, strength, out=st.out)
                 t4 = pc()
-                meshio.write_vectors(me, stage.OFFSET_ATTR, out)
-                me.update_tag()
+                assert pipeline._write_in_place(st, ev, skin, out)
                 t5 = pc()
-                dg = bpy.context.evaluated_depsgraph_get()
-                self.read_positions(dg)
-                t6 = pc()
                 if record:
                     base.append(t1 - t0)
                     rd.append(t2 - t1)
                     cp.append(t4 - t3)
-                    ws.append(t5 - t4)
-                    re_.append(t6 - t5)
+                    wr.append(t5 - t4)
 
             for f in self.warm:
                 one(f, False)
             for f in self.frames:
                 one(f, True)
 
-            # the whole update_face call, for its bookkeeping overhead
-            uf = []
+            # the whole handler call on the in-place path (bookkeeping included), and the
+            # write-back path that render and export frames take, with its re-evaluation
             for f in self.warm + self.frames:
                 self.scene.frame_set(f)
                 dg = bpy.context.evaluated_depsgraph_get()
                 t0 = pc()
-                pipeline.update_face(ob, dg)
+                pipeline.update_scene(self.scene, dg, in_place=True)
                 t1 = pc()
-                bpy.context.evaluated_depsgraph_get()
+                pipeline.update_scene(self.scene, dg)  # write-back: foreach_set + tag ...
+                t2 = pc()
+                self.read_positions(bpy.context.evaluated_depsgraph_get())  # ... + re-evaluation
+                t3 = pc()
                 if f in self.frames:
                     uf.append(t1 - t0)
+                    wb.append(t2 - t1)
+                    rev.append(t3 - t2)
         finally:
             handlers.append(pipeline.on_frame_change_post)
-        r = {"read_ms": ms(rd), "compute_ms": ms(cp), "write_set_ms": ms(ws), "reeval_ms": ms(re_)}
-        r["write_ms"] = r["write_set_ms"] + r["reeval_ms"]
-        r["stage_ms"] = r["read_ms"] + r["compute_ms"] + r["write_ms"]
+        r = {"read_ms": ms(rd), "compute_ms": ms(cp), "write_ms": ms(wr)}
         r["eval_stage_ms"] = ms(base)
         r["update_face_ms"] = ms(uf)
-        r["overhead_ms"] = r["update_face_ms"] - (r["read_ms"] + r["compute_ms"] + r["write_set_ms"])
+        r["overhead_ms"] = r["update_face_ms"] - (r["read_ms"] + r["compute_ms"] + r["write_ms"])
+        r["writeback_handler_ms"] = ms(wb)
+        r["writeback_reeval_ms"] = ms(rev)
         log("  split: " + "  ".join(f"{k} {v:.3f}" for k, v in r.items()))
         return r
 
     def measure_playback(self):
+        """Frames with wrinkles (stage on, handler in) against frames without (stage off,
+        handler out), interleaved A B A B like the tension measurement."""
+        mod = stage.find_modifier(self.ob)
+        handlers = bpy.app.handlers.frame_change_post
+        base, wrinkled = [], []
+        for _round in range(2):
+            for on in (False, True):
+                mod.show_viewport = on
+                if on:
+                    handlers.append(pipeline.on_frame_change_post)
+                else:
+                    handlers.remove(pipeline.on_frame_change_post)
+                self.frame_loop(self.warm)
+                (wrinkled if on else base).extend(self.frame_loop(self.frames))
+        # untimed checks with the handler in: offsets change, and the frame shows its own
         me = self.ob.data
-        off = np.empty(self.n * 3, _F)
-        skin = np.empty(self.n * 3, _F)
-        prev = [None]
-        changed, mags, acc = [], [], []
+        off = np.empty((self.n, 3), _F)
+        skin = np.empty((self.n, 3), _F)
+        stored = np.empty((self.n, 3), _F)
+        me.attributes[stage.OFFSET_ATTR].data.foreach_get("vector", stored.ravel())
+        prev, changed, mags, acc, untouched = [None], [], [], [], []
 
         def check(ev):
-            me.attributes[stage.OFFSET_ATTR].data.foreach_get("vector", off)
+            ev.attributes[stage.OFFSET_ATTR].data.foreach_get("vector", off.ravel())
             if prev[0] is not None:
                 changed.append(not np.array_equal(prev[0], off))
             prev[0] = off.copy()
             mags.append(float(np.abs(off).max()))
-            ev.attributes[stage.SKIN_ATTR].data.foreach_get("vector", skin)
-            acc.append(float(np.abs(self.pos_buf - (skin + off)).max()))
+            ev.attributes[stage.SKIN_ATTR].data.foreach_get("vector", skin.ravel())
+            acc.append(float(np.abs(self.pos_buf.reshape(-1, 3) - (skin + off)).max()))
+            now = np.empty_like(stored)
+            me.attributes[stage.OFFSET_ATTR].data.foreach_get("vector", now.ravel())
+            untouched.append(np.array_equal(now, stored))
 
-        self.frame_loop(self.warm)
-        times = self.frame_loop(self.frames)  # timed without the checks
-        self.frame_loop(self.warm)
-        self.frame_loop(self.frames, check)  # checks, untimed
-        playback = ms(times)
-        log(f"  playback_ms {playback:.2f}; offsets changed on {sum(changed)}/{len(changed)} frames, "
-            f"max |offset| per frame {min(mags) * 1000:.3f}..{max(mags) * 1000:.3f} mm, "
-            f"max |pos - (skin + offset)| {max(acc):.2e}")
-        return {"playback_ms": playback, "playback_mean_ms": mean_ms(times),
-                "offsets_changed_frames": int(sum(changed)), "checked_frames": len(changed),
+        self.frame_loop(self.warm + self.frames, check)
+        b, w = ms(base), ms(wrinkled)
+        log(f"  playback_ms {w:.2f} vs {b:.2f} without wrinkles (interleaved); offsets changed on "
+            f"{sum(changed)}/{len(changed)} frames, max |offset| per frame {min(mags) * 1000:.3f}.."
+            f"{max(mags) * 1000:.3f} mm, max |pos - (skin + offset)| {max(acc):.2e}, original mesh "
+            f"untouched (in place, no second evaluation) on {sum(untouched)}/{len(untouched)} frames")
+        return {"playback_ms": w, "playback_mean_ms": mean_ms(wrinkled), "playback_base_ms": b,
+                "stage_ms": w - b, "offsets_changed_frames": int(sum(changed)),
+                "checked_frames": len(changed), "in_place_frames": int(sum(untouched)),
                 "max_offset_mm": max(mags) * 1000.0, "stage_applied_err": max(acc)}
 
     def profile(self, plan, show):
@@ -456,11 +457,11 @@ class Bench:
             prof = cProfile.Profile()
             prof.enable()
             for _ in range(40):
-                pipeline.update_face(self.ob, dg)
+                pipeline.update_scene(self.scene, dg, in_place=True)
             prof.disable()
             s = io.StringIO()
             pstats.Stats(prof, stream=s).sort_stats("tottime").print_stats(16)
-            log("  cProfile of 40 pipeline.update_face() calls (no re-evaluation), by tottime:")
+            log("  cProfile of 40 pipeline.update_scene(in_place=True) calls (the handler), by tottime:")
             for line in s.getvalue().splitlines():
                 if line.strip() and not line.startswith(("   Ordered", "         ")):
                     log("    " + line.rstrip())
@@ -469,48 +470,32 @@ class Bench:
 
 
 def evaluate_steps(plan, skin, contraction, strength, out):
-    """``core.system.evaluate`` split into timed steps (keep in sync with it)."""
+    """``core.system.evaluate`` split into timed steps, calling its own parts (keep in sync)."""
     t = {}
     c = pc()
-    s = np.asarray(skin, dtype=_F)[plan.verts]
-    bad = ~np.isfinite(s).all(axis=1)
-    if bad.any():
-        s[bad] = 0.0
+    s = np.take(np.asarray(skin, dtype=_F), plan.verts, axis=0).T.copy()
+    finite = np.isfinite(s.sum())
     t["gather+finite"] = pc() - c
     c = pc()
-    pull = system.waters_pull(plan, s, contraction)
-    pulled = s + pull
+    offset = system.waters_pull(plan, s, contraction)
+    pulled = s + offset
     t["waters_pull"] = pc() - c
     c = pc()
-    e = plan.edges
-    d = pulled[e[:, 1]] - pulled[e[:, 0]]
-    length = np.sqrt(np.einsum("ij,ij->i", d, d))
-    t["edge_lengths"] = pc() - c
+    eps = system.compression(plan, pulled)
+    t["compression"] = pc() - c
     c = pc()
-    tau = zhang.edge_shrinkage(plan.rest_length, length)
-    t["tau"] = pc() - c
+    w = plan.row_amp * zhang.anisotropic(eps)
+    height = plan.height_sum.sum(w) * _F(strength)
+    t["anisotropic+heights"] = pc() - c
     c = pc()
-    eps = np.bincount(plan.pair_row, weights=plan.pair_weight * tau[plan.pair_edge],
-                      minlength=len(plan.row_vert))
-    t["eps_bincount"] = pc() - c
-    c = pc()
-    w = plan.row_amp * zhang.anisotropic(eps).astype(_F)
-    t["anisotropic"] = pc() - c
-    c = pc()
-    height = np.bincount(plan.row_vert, weights=w, minlength=len(plan.verts)).astype(_F)
-    height *= _F(np.nan_to_num(strength))
-    t["height_bincount"] = pc() - c
-    c = pc()
-    normal = core_mesh.vertex_normals(pulled, plan.tris, len(plan.verts))
+    normal = core_mesh.normals_at(pulled, plan.tris, plan.normal_sum)
     t["normals"] = pc() - c
     c = pc()
-    offset = pull + height[:, None] * normal
-    offset[bad] = 0.0
-    offset[~np.isfinite(offset)] = 0.0
-    t["assemble+finite"] = pc() - c
-    c = pc()
-    out[plan.verts] = offset
-    t["scatter"] = pc() - c
+    offset[:, plan.height_sum.keys] += height * normal
+    finite = finite and np.isfinite(offset.sum())
+    out[plan.verts] = offset.T
+    t["assemble+scatter"] = pc() - c
+    assert finite
     return out, t
 
 
@@ -529,14 +514,15 @@ def run_size(label, target, args):
     r.update(b.measure_split(plan))
     r.update(b.measure_playback())
     r["gn_ratio"] = r["stage_ms"] / r["gn_tension_ms"] if r["gn_tension_ms"] > 0 else None
-    r["playback_ratio"] = r["playback_ms"] / r["eval_ms"]
+    r["playback_ratio"] = r["playback_ms"] / r["playback_base_ms"]
     steps, same, tight = b.profile(plan, show=(label == args.profile_at))
     r["compute_tight_loop_ms"] = tight
     r["evaluate_steps_ms"] = {k: round(v, 4) for k, v in steps.items()}
     r["evaluate_replica_exact"] = bool(same)
-    log(f"  => stage {r['stage_ms']:.2f} ms (read {r['read_ms']:.3f}, compute {r['compute_ms']:.3f}, "
-        f"write {r['write_ms']:.3f}); gn_ratio {r['gn_ratio']}; playback {r['playback_ms']:.2f} vs "
-        f"eval {r['eval_ms']:.2f} = x{r['playback_ratio']:.2f}  [{pc() - t0:.1f} s]")
+    log(f"  => stage {r['stage_ms']:.2f} ms (handler {r['update_face_ms']:.3f}: read {r['read_ms']:.3f}, "
+        f"compute {r['compute_ms']:.3f}, write {r['write_ms']:.3f}); gn_tension {r['gn_tension_ms']:.2f} ms, "
+        f"gn_ratio {r['gn_ratio']:.2f}; playback {r['playback_ms']:.2f} vs {r['playback_base_ms']:.2f} "
+        f"= x{r['playback_ratio']:.2f}  [{pc() - t0:.1f} s]")
     return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in r.items()}
 
 

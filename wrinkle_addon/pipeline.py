@@ -9,7 +9,25 @@ Per frame, for every face with wrinkles enabled:
    a muscle's geometry or parameters changed (compared by signature, so undo,
    drivers and animated parameters are all handled);
 3. evaluate the muscles in NumPy (``core.system.evaluate``);
-4. write the offsets once with ``foreach_set`` and tag the mesh.
+4. write the result, in one of two ways:
+
+   * **write-back** (renders, exports, interactive edits): ``foreach_set`` the
+     offsets into the original mesh's ``wrinkle_offset`` and tag it.  Blender
+     then evaluates the face's whole modifier stack a second time in the same
+     frame change (shape keys, armature, the stage), and any depsgraph built
+     later - a render's, an exporter's - sees the same offsets.
+   * **in place** (viewport frame changes: playback, scrubbing, ``frame_set``):
+     write ``skin + offset`` straight into the evaluated mesh of the depsgraph
+     that is being updated, and tell that mesh its positions changed so its
+     normals are recomputed.  No second evaluation: a frame costs Blender's own
+     evaluation plus this handler.  Used only when the evaluated mesh was
+     re-evaluated for this frame (so its draw cache is rebuilt from our data)
+     and has exactly the base vertices (no CPU subdivision after the stage);
+     otherwise the frame falls back to write-back.
+
+   Render and export depsgraphs are always written back (measured: every
+   render and Alembic frame calls ``frame_change_post`` with a RENDER-mode
+   depsgraph), so final frames never depend on the in-place path.
 
 No ``bpy`` object is held between calls: the cache holds NumPy arrays keyed by
 ``Object.session_uid``, and every call looks the objects up again, so undo,
@@ -31,14 +49,16 @@ _status = {}  # session_uid -> message for the panel
 
 
 class _FaceState:
-    __slots__ = ("key", "edges", "tris", "rest", "scratch", "sigs", "plan", "out", "skin", "last_inputs")
+    __slots__ = ("key", "edges", "tris", "rest", "scratch", "sigs", "plan", "out", "skin", "positions",
+                 "orig_inputs", "shown")
 
     def __init__(self):
         self.key = None
         self.scratch = None
         self.sigs = None
         self.plan = None
-        self.last_inputs = None
+        self.orig_inputs = None  # the inputs whose offsets the original mesh holds
+        self.shown = None  # the positions the evaluated mesh shows after our last write
 
 
 def status(ob):
@@ -85,6 +105,8 @@ def _topology(state, me):
     state.tris = core_mesh.fan_triangles(corner, starts, sizes)
     state.out = np.zeros((len(rest), 3), dtype=np.float32)
     state.skin = np.empty((len(rest), 3), dtype=np.float32)
+    state.positions = np.empty((len(rest), 3), dtype=np.float32)
+    state.shown = None
     state.plan = None
     return True
 
@@ -98,12 +120,42 @@ def _plan(state, face, muscles):
     state.plan = system.build_plan(state.rest, state.edges, state.tris, core_muscles)
     state.sigs = sigs
     state.out[:] = 0.0
-    state.last_inputs = None
+    state.orig_inputs = None
     return state.plan
 
 
-def update_face(ob, depsgraph, only_if_changed=False):
-    """Evaluate and write one face's wrinkles.  Returns True when it wrote new offsets."""
+def _write_in_place(state, ev, skin, offset):
+    """Write ``skin + offset`` into the evaluated mesh ``ev``.  False when that is not safe.
+
+    Safe only when ``ev`` has exactly the base vertices and was re-evaluated
+    since our last write, which we know when it no longer shows the positions
+    that write left (``state.shown``): then Blender rebuilds its draw data from
+    what we leave in it.  If it was not re-evaluated and already shows these
+    positions, there is nothing to do.  Without a previous write we cannot tell.
+    """
+    if len(ev.vertices) != len(skin) or state.shown is None:
+        return False
+    pos = ev.attributes["position"]
+    current = state.positions
+    pos.data.foreach_get("vector", current.reshape(-1))
+    new = skin + offset
+    if np.array_equal(current, state.shown):
+        return np.array_equal(new, current)  # not re-evaluated: only identical is fine
+    pos.data.foreach_set("vector", new.reshape(-1))
+    if ev.attributes.get(stage.OFFSET_ATTR) is not None:  # keep the evaluated mesh consistent
+        meshio.write_vectors(ev, stage.OFFSET_ATTR, offset)
+    ev.update()  # drops the cached normals; measured not to trigger a re-evaluation
+    state.shown = new
+    return True
+
+
+def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=None):
+    """Evaluate and write one face's wrinkles.  Returns True when it wrote new offsets.
+
+    ``in_place``: write into ``depsgraph``'s evaluated mesh if that is safe
+    (see the module doc), else write back into the original mesh.
+    ``only_if_changed``: skip when the original mesh already holds the offsets
+    of these inputs.  ``in_scene``: see ``muscle_objects.live_muscles``."""
     uid = ob.session_uid
     why = check_face(ob)
     if why:
@@ -133,30 +185,38 @@ def update_face(ob, depsgraph, only_if_changed=False):
     if state is None:
         state = _cache[uid] = _FaceState()
     _topology(state, me)
-    muscles = muscle_objects.live_muscles(ob)
+    muscles = muscle_objects.live_muscles(ob, in_scene)
     plan = _plan(state, ob, muscles)
     skin = meshio.read_vector_prefix(ev, stage.SKIN_ATTR, len(me.vertices), state.skin)
     contraction = np.array([m.wrinkle_muscle.contraction for m in muscles], dtype=np.float64)
     strength = ob.wrinkles.strength
-    if only_if_changed and state.last_inputs is not None:
-        old_skin, old_c, old_s = state.last_inputs
+    if only_if_changed and state.orig_inputs is not None:
+        old_skin, old_c, old_s = state.orig_inputs
         if old_s == strength and np.array_equal(old_c, contraction) and np.array_equal(old_skin, skin):
             return False
     out = system.evaluate(plan, skin, contraction, strength, out=state.out)
-    meshio.write_vectors(me, stage.OFFSET_ATTR, out)
-    me.update_tag()
-    state.last_inputs = (skin.copy(), contraction, strength)
+    if not (in_place and _write_in_place(state, ev, skin, out)):
+        meshio.write_vectors(me, stage.OFFSET_ATTR, out)
+        me.update_tag()
+        state.orig_inputs = (skin.copy(), contraction, strength)
+        state.shown = skin + out  # what the re-evaluation that the tag triggers will show
     problems = [f'"{muscles[i].name}": {msg}' for i, msg in plan.problems]
     _set_status(ob, "Muscle without effect: " + "; ".join(problems) if problems else "")
     return True
 
 
-def enabled_faces(scene):
-    return [ob for ob in scene.objects if ob.type == "MESH" and ob.wrinkles.enabled]
+def _scan(scene):
+    """The faces with wrinkles on, and the session_uid of every object, in one pass."""
+    faces, in_scene = [], set()
+    for ob in scene.objects:
+        in_scene.add(ob.session_uid)
+        if ob.type == "MESH" and ob.wrinkles.enabled:
+            faces.append(ob)
+    return faces, in_scene
 
 
-def update_scene(scene, depsgraph, only_if_changed=False):
-    faces = enabled_faces(scene)
+def update_scene(scene, depsgraph, only_if_changed=False, in_place=False):
+    faces, in_scene = _scan(scene)
     meshes = [ob.data for ob in faces]
     for ob in faces:
         if meshes.count(ob.data) > 1:  # linked duplicates would overwrite each other
@@ -164,7 +224,7 @@ def update_scene(scene, depsgraph, only_if_changed=False):
                             "make the mesh single-user (Object > Relations > Make Single User)")
             continue
         try:
-            update_face(ob, depsgraph, only_if_changed)
+            update_face(ob, depsgraph, only_if_changed, in_place, in_scene)
         except Exception as exc:  # a handler must never raise into Blender
             _set_status(ob, f"Internal error, wrinkles skipped: {exc!r}")
             print(f"Expression Wrinkles: {ob.name}: {exc!r}")
@@ -201,10 +261,15 @@ def _current_depsgraph(scene):
 
 @persistent
 def on_frame_change_post(scene, depsgraph=None):
-    # Read through the context's depsgraph: the handler's argument drops other animated
-    # shape keys during render(animation=True) (BLENDER_NOTES.md, "Handlers").
     if _in_frame_sync:
         return
+    if depsgraph is not None and depsgraph.mode == "VIEWPORT":
+        # the depsgraph just evaluated for this frame: write into it, no second evaluation
+        update_scene(scene, depsgraph, in_place=True)
+        return
+    # Renders and exports: write back, reading through the context's depsgraph, since the
+    # handler's argument drops other animated shape keys during render(animation=True)
+    # (BLENDER_NOTES.md, "Handlers").
     update_scene(scene, _current_depsgraph(scene))
 
 
@@ -219,6 +284,15 @@ def on_depsgraph_update_post(scene, depsgraph=None):
     if screen is not None and screen.is_animation_playing:
         return  # playback is handled frame by frame
     update_scene(scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
+
+
+@persistent
+def on_save_pre(*_args):
+    # In-place frames leave older offsets in the original mesh: store this frame's, so the
+    # file opens showing what was on screen (even where the add-on is not installed).
+    ctx = bpy.context
+    if ctx.scene is not None and not _rendering():
+        update_scene(ctx.scene, ctx.evaluated_depsgraph_get(), only_if_changed=True)
 
 
 @persistent
@@ -265,6 +339,7 @@ _HANDLERS = (
     (bpy.app.handlers.frame_change_post, on_frame_change_post),
     (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update_post),
     (bpy.app.handlers.load_post, on_load_post),
+    (bpy.app.handlers.save_pre, on_save_pre),
 )
 
 

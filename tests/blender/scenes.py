@@ -73,6 +73,24 @@ def evaluated_positions(ob):
 
 
 def offsets(ob):
+    """The offsets the face shows now: ``wrinkle_offset`` of its evaluated mesh.
+
+    In the viewport the pipeline may write them into the evaluated mesh only
+    (in place), so the original mesh can hold an older frame's offsets."""
+    ev = ob.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    out = np.empty((len(ob.data.vertices), 3), np.float32)
+    att = ev.attributes["wrinkle_offset"]
+    if len(ev.vertices) == len(out):
+        att.data.foreach_get("vector", out.ravel())
+    else:  # a Subdivision Surface after the stage: the base vertices come first
+        full = np.empty((len(ev.vertices), 3), np.float32)
+        att.data.foreach_get("vector", full.ravel())
+        out[:] = full[: len(out)]
+    return out
+
+
+def stored_offsets(ob):
+    """The offsets held by the original mesh (what write-back last wrote)."""
     out = np.empty((len(ob.data.vertices), 3), np.float32)
     ob.data.attributes["wrinkle_offset"].data.foreach_get("vector", out.ravel())
     return out

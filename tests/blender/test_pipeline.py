@@ -135,6 +135,85 @@ def test_survives_undo():
     np.testing.assert_allclose(scenes.offsets(face), contracted, atol=1e-7)
 
 
+def _read(me, name):
+    out = np.empty((len(me.vertices), 3), np.float32)
+    me.attributes[name].data.foreach_get("vector", out.ravel())
+    return out
+
+
+def test_viewport_frames_are_written_in_place(animated_scene):
+    """frame_set in the viewport depsgraph: the evaluated mesh shows skin + offset, the
+    original mesh is not written (so Blender does not evaluate the stack a second time),
+    and the offsets are exactly those that write-back (renders) computes."""
+    scene, face = animated_scene
+    scene.frame_set(1)
+    stored = scenes.stored_offsets(face).copy()
+    for f in (2, 4, 3):
+        scene.frame_set(f)
+        dg = bpy.context.evaluated_depsgraph_get()
+        ev = face.evaluated_get(dg).data
+        shown = scenes.offsets(face).copy()
+        assert np.abs(shown).max() > 1e-4
+        np.testing.assert_array_equal(_read(ev, "position"), _read(ev, "wrinkle_skin") + shown)
+        np.testing.assert_array_equal(scenes.stored_offsets(face), stored)
+        assert pipeline.update_face(face, dg)  # write-back, as a render frame does
+        np.testing.assert_array_equal(scenes.stored_offsets(face), shown)
+        stored = shown
+
+
+def test_in_place_frames_refresh_the_normals(animated_scene):
+    """Normals cached before our in-place write must not survive it (they shade the wrinkles)."""
+    scene, face = animated_scene
+
+    def cache_normals(scn, depsgraph=None):  # runs before ours, as any other add-on might
+        if depsgraph is not None:
+            ev = face.evaluated_get(depsgraph).data
+            ev.vertex_normals.foreach_get("vector", np.empty(len(ev.vertices) * 3, np.float32))
+
+    scene.frame_set(2)  # the original mesh now holds offsets of another frame than 3
+    handlers = bpy.app.handlers.frame_change_post
+    handlers.insert(0, cache_normals)
+    try:
+        scene.frame_set(3)
+    finally:
+        handlers.remove(cache_normals)
+    ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    got = np.empty((len(ev.vertices), 3), np.float32)
+    ev.vertex_normals.foreach_get("vector", got.ravel())
+
+    def normals_of(positions):
+        me = bpy.data.meshes.new("probe")
+        me.from_pydata(positions.tolist(), [], [tuple(p.vertices) for p in face.data.polygons])
+        out = np.empty((len(me.vertices), 3), np.float32)
+        me.vertex_normals.foreach_get("vector", out.ravel())
+        bpy.data.meshes.remove(me)
+        return out
+
+    want = normals_of(_read(ev, "position"))
+    unwrinkled = normals_of(_read(ev, "wrinkle_skin"))
+    assert np.abs(want - unwrinkled).max() > 1e-2  # the wrinkles do tilt the normals
+    np.testing.assert_allclose(got, want, atol=1e-5)
+
+
+def test_muscle_only_animation_updates_the_viewport():
+    """The face itself is static, only a contraction is keyed: Blender does not re-evaluate
+    the face, so an in-place write would not be drawn; the pipeline writes back instead."""
+    scene = bpy.context.scene
+    face, muscle = scenes.wrinkled_face()
+    for frame, value in ((1, 0.0), (3, 1.0)):
+        muscle.wrinkle_muscle.contraction = value
+        muscle.keyframe_insert("wrinkle_muscle.contraction", frame=frame)
+    seen = {}
+    for f in (1, 3, 2, 1, 3):
+        scene.frame_set(f)
+        ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+        off = scenes.offsets(face).copy()
+        assert (np.abs(off).max() > 1e-4) == (f > 1), f
+        np.testing.assert_array_equal(_read(ev, "position"), _read(ev, "wrinkle_skin") + off)
+        np.testing.assert_array_equal(off, seen.setdefault(f, off))
+        np.testing.assert_array_equal(scenes.stored_offsets(face), off)  # written back
+
+
 def test_survives_save_and_reload(tmp_path):
     scene = bpy.context.scene
     face, muscle = scenes.wrinkled_face()

@@ -62,23 +62,74 @@ def gather_incident(offsets, values, verts):
     return row, values[entry] if len(entry) else values[:0]
 
 
+class Bins:
+    """A fixed assignment of rows to bins (vertices, rows), for repeated per-bin sums.
+
+    Built once with :meth:`of`; :meth:`sum` is one ``np.bincount`` per
+    component.  Measured against ``np.add.reduceat`` over pre-sorted rows and a
+    cumulative-sum difference, ``bincount`` is 2-6x faster here, because the
+    segments are short (one to six rows per bin).
+    """
+
+    __slots__ = ("index", "keys", "size")
+
+    @classmethod
+    def of(cls, keys, domain=None):
+        """Row ``i`` goes to the bin of ``keys[i]``.  The bins are ``domain`` (sorted
+        unique keys; rows whose key is not in it are dropped), by default every
+        distinct key.  ``self.keys`` lists the bins' keys."""
+        self = cls()
+        keys = np.asarray(keys, dtype=np.int64).ravel()
+        domain = np.unique(keys) if domain is None else np.asarray(domain, dtype=np.int64)
+        idx = np.searchsorted(domain, keys)
+        found = np.zeros(len(keys), bool)
+        if len(domain):
+            found = domain[np.minimum(idx, len(domain) - 1)] == keys
+        self.index = np.where(found, idx, len(domain))  # the extra last bin is dropped
+        self.keys = domain
+        self.size = len(domain)
+        return self
+
+    def sum(self, values):
+        """Per-bin sums of ``values``: shape (R,) -> (size,), or (C, R) -> (C, size)."""
+        values = np.asarray(values)
+        if values.ndim == 2:
+            return np.stack([self.sum(c) for c in values])
+        total = np.bincount(self.index, weights=values, minlength=self.size + 1)
+        return total[: self.size].astype(values.dtype)
+
+
+def _normalize(v):
+    """Normalise the columns of a (3, K) array in place; zero where undefined."""
+    length = np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    inv = np.where(length > _EPS, 1.0 / np.maximum(length, _EPS), 0.0).astype(v.dtype)
+    v *= inv
+    return v
+
+
+def triangle_normals(p, tris):
+    """Unnormalised triangle normals (twice the area) as (3, T), from positions
+    ``p`` given as (3, N) and the triangle corners ``tris`` as (3, T)."""
+    x, y, z = p
+    t0, t1, t2 = tris
+    x0, y0, z0 = x[t0], y[t0], z[t0]
+    ax, ay, az = x[t1] - x0, y[t1] - y0, z[t1] - z0
+    bx, by, bz = x[t2] - x0, y[t2] - y0, z[t2] - z0
+    return np.stack([ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx])
+
+
 def vertex_normals(positions, tris, n_verts):
-    """Area-weighted vertex normals from triangles; zero where undefined."""
-    out = np.zeros((n_verts, 3), dtype=positions.dtype)
-    if len(tris) == 0:
-        return out
-    p0 = positions[tris[:, 0]]
-    a = positions[tris[:, 1]] - p0
-    b = positions[tris[:, 2]] - p0
-    # the cross product written out: ~2x faster than np.cross on (T, 3) arrays
-    fn = np.empty_like(a)
-    fn[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    fn[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    fn[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    idx = tris.ravel()
-    for c in range(3):
-        out[:, c] = np.bincount(idx, weights=np.repeat(fn[:, c], 3), minlength=n_verts)
-    length = np.sqrt(np.einsum("ij,ij->i", out, out))
-    inv = np.where(length > _EPS, 1.0 / np.maximum(length, _EPS), 0.0).astype(out.dtype)
-    out *= inv[:, None]
-    return out
+    """Area-weighted vertex normals (N, 3) from triangles (T, 3); zero where undefined."""
+    tris = np.asarray(tris).reshape(-1, 3).T
+    bins = Bins.of(tris, domain=np.arange(n_verts))
+    return normals_at(np.ascontiguousarray(np.asarray(positions).T), tris, bins).T
+
+
+def normals_at(p, tris, corner_bins):
+    """Area-weighted normals (3, K) at the bins of ``corner_bins``, which assigns the
+    corners ``tris.ravel()`` of the (3, T) triangles to vertices; ``p`` is (3, N).
+    Zero where undefined."""
+    if tris.shape[1] == 0:
+        return np.zeros((3, corner_bins.size), dtype=p.dtype)
+    fn = triangle_normals(p, tris)  # each corner of a triangle gets its normal:
+    return _normalize(np.stack([corner_bins.sum(np.tile(c, 3)) for c in fn]))
