@@ -442,31 +442,28 @@ class Bench:
                 f"total {total:.3f} ms:")
             for k, v in sorted(steps.items(), key=lambda kv: -kv[1]):
                 log(f"    {k:22s} {v:7.3f} ms  {100 * v / total:5.1f} %")
-            prof = cProfile.Profile()
-            prof.enable()
-            for _ in range(40):
-                system.evaluate(plan, skin, contraction, 1.0, out=st.out)
-            prof.disable()
-            s = io.StringIO()
-            pstats.Stats(prof, stream=s).sort_stats("tottime").print_stats(14)
-            log("  cProfile of 40 evaluate() calls, by tottime:")
-            for line in s.getvalue().splitlines():
-                if line.strip() and not line.startswith(("   Ordered", "         ")):
-                    log("    " + line.rstrip())
+            log_profile("evaluate() calls", 14,
+                        lambda: system.evaluate(plan, skin, contraction, 1.0, out=st.out))
             dg = bpy.context.evaluated_depsgraph_get()
-            prof = cProfile.Profile()
-            prof.enable()
-            for _ in range(40):
-                pipeline.update_scene(self.scene, dg, in_place=True)
-            prof.disable()
-            s = io.StringIO()
-            pstats.Stats(prof, stream=s).sort_stats("tottime").print_stats(16)
-            log("  cProfile of 40 pipeline.update_scene(in_place=True) calls (the handler), by tottime:")
-            for line in s.getvalue().splitlines():
-                if line.strip() and not line.startswith(("   Ordered", "         ")):
-                    log("    " + line.rstrip())
+            log_profile("pipeline.update_scene(in_place=True) calls (the handler)", 16,
+                        lambda: pipeline.update_scene(self.scene, dg, in_place=True))
             bpy.context.evaluated_depsgraph_get()
         return steps, same, ms(tight)
+
+
+def log_profile(what, rows, call, times=40):
+    """cProfile ``times`` calls of ``call`` and log the top ``rows`` functions by tottime."""
+    prof = cProfile.Profile()
+    prof.enable()
+    for _ in range(times):
+        call()
+    prof.disable()
+    text = io.StringIO()
+    pstats.Stats(prof, stream=text).sort_stats("tottime").print_stats(rows)
+    log(f"  cProfile of {times} {what}, by tottime:")
+    for line in text.getvalue().splitlines():
+        if line.strip() and not line.startswith(("   Ordered", "         ")):
+            log("    " + line.rstrip())
 
 
 def evaluate_steps(plan, skin, contraction, strength, out):
