@@ -11,9 +11,9 @@ _MODULES = ()
 
 
 def _modules():
-    from . import draw, operators, pipeline, props, ui
+    from . import convert_ops, draw, map_ops, mapbake, operators, pipeline, props, ui
 
-    return (props, pipeline, operators, ui, draw)
+    return (props, pipeline, operators, map_ops, convert_ops, mapbake, ui, draw)
 
 
 def register():

@@ -188,6 +188,25 @@ def compression(plan, pulled):
     return plan.pair_sum.sum(plan.pair_weight * tau[plan.pair_edge])
 
 
+def _local_skin(plan, skin):
+    """The plan's local skin (3, U) float32 and the mask of non-finite vertices (or None)."""
+    s = np.take(np.asarray(skin, dtype=_F).reshape(-1), plan.flat)  # (3, U), one 1-D gather
+    bad = None
+    if not np.isfinite(s.sum()):  # fast path: one reduction when all is finite
+        bad = ~np.isfinite(s).all(axis=0)
+        s[:, bad] = 0.0
+    return s, bad
+
+
+def _pull_and_heights(plan, s, contraction, strength):
+    """Waters pull (3, U), the pulled skin (3, U) and eq. 4's summed height W at the
+    wrinkled local vertices ``plan.height_sum.keys``."""
+    offset = waters_pull(plan, s, contraction)
+    pulled = s + offset
+    w = plan.row_amp * zhang.anisotropic(compression(plan, pulled))
+    return offset, pulled, plan.height_sum.sum(w) * _F(np.nan_to_num(strength))
+
+
 def evaluate(plan, skin, contraction, strength=1.0, out=None):
     """Offsets (N, 3) float32 for the skin positions ``skin`` (N, 3).
 
@@ -199,24 +218,34 @@ def evaluate(plan, skin, contraction, strength=1.0, out=None):
         out = np.zeros((plan.n_verts, 3), dtype=_F)
     if len(plan.verts) == 0:
         return out
-    s = np.take(np.asarray(skin, dtype=_F).reshape(-1), plan.flat)  # (3, U), one 1-D gather
-    bad = None
-    if not np.isfinite(s.sum()):  # fast path: one reduction when all is finite
-        bad = ~np.isfinite(s).all(axis=0)
-        s[:, bad] = 0.0
-    offset = waters_pull(plan, s, contraction)
-    pulled = s + offset
-    w = plan.row_amp * zhang.anisotropic(compression(plan, pulled))
-    hs = plan.height_sum
-    height = hs.sum(w) * _F(np.nan_to_num(strength))
+    s, bad = _local_skin(plan, skin)
+    offset, pulled, height = _pull_and_heights(plan, s, contraction, strength)
     normal = mesh.normals_at(pulled, plan.tris, plan.normal_sum)
+    keys = plan.height_sum.keys
     for c in range(3):
-        offset[c][hs.keys] += height * normal[c]
+        offset[c][keys] += height * normal[c]
     if bad is not None:
         offset[:, bad] = 0.0
     if not np.isfinite(offset.sum()):
         offset[~np.isfinite(offset)] = 0.0
     np.put(out.reshape(-1), plan.flat, offset)  # ``out`` must be C-contiguous (N, 3)
+    return out
+
+
+def heights(plan, skin, contraction, strength=1.0):
+    """Eq. 4's wrinkle height W (N,) float32 along the skin normal, per vertex (0 outside
+    the wrinkling regions): the scalar field that :func:`evaluate` displaces along the
+    normal, e.g. for baking it into a wrinkle map in UV space."""
+    out = np.zeros(plan.n_verts, dtype=_F)
+    if len(plan.verts) == 0:
+        return out
+    s, bad = _local_skin(plan, skin)
+    _offset, _pulled, height = _pull_and_heights(plan, s, contraction, strength)
+    local = np.zeros(len(plan.verts), dtype=_F)
+    local[plan.height_sum.keys] = height
+    if bad is not None:
+        local[bad] = 0.0
+    out[plan.verts] = np.nan_to_num(local, nan=0.0, posinf=0.0, neginf=0.0)
     return out
 
 

@@ -1,0 +1,229 @@
+"""The expression table: drivers, zone sums, clamp, cancelling, and files without Python."""
+
+import addon_utils
+import bpy
+import numpy as np
+import pytest
+
+from tests.blender import mapscenes
+from wrinkle_addon import mapgroup, wrinklemaps
+from wrinkle_addon.core import wrinkle_maps as wm
+
+SIZE = 8
+FLAT = np.tile(np.array([0.5, 0.5, 1.0], np.float32), (SIZE, SIZE, 1))
+
+
+def _pd_map(rng):
+    return wm.normal_to_derivative(mapscenes.random_normal_map(rng, SIZE, 0.3))
+
+
+def _expected(face, values, map_a, mask_a, mask_b, base=FLAT):
+    maps = face.wrinkles.maps
+    sums = wm.expression_sums(values, wrinklemaps.table(maps))
+    w = wm.zone_response(sums, np.array(maps.zone_strength), np.array(maps.zone_power))
+    return wm.encode(wm.blend(base, [map_a, np.full_like(map_a, 0.5)], mask_a, mask_b,
+                              [w, np.zeros(8)], maps.strength))
+
+
+def _render(render_small, tmp_path, name="r.exr"):
+    return render_small(bpy.context.scene, tmp_path / name, size=SIZE, samples=1)[..., :3]
+
+
+def _forehead_face(rng, keys=("browInnerUp_L", "browDown_L")):
+    """Zones 1-4 (the forehead) each cover a quarter of the plane; mask B is empty."""
+    mask_a = np.zeros((SIZE, SIZE, 4), np.float32)
+    half = SIZE // 2
+    mask_a[:half, :half, 0] = mask_a[:half, half:, 1] = 1.0
+    mask_a[half:, :half, 2] = mask_a[half:, half:, 3] = 1.0
+    mask_b = np.zeros((SIZE, SIZE, 4), np.float32)
+    map_a = _pd_map(rng)
+    face = mapscenes.skin_plane(SIZE, mask_a, mask_b, map_a, keys=keys)
+    return face, map_a, mask_a, mask_b
+
+
+def test_surprise_plus_anger_smooths_the_forehead(render_small, tmp_path):
+    """Jimenez et al. Fig. 1.5: anger's negative forehead weights cancel surprise's."""
+    rng = np.random.default_rng(0)
+    face, map_a, mask_a, mask_b = _forehead_face(rng)
+    assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
+    assert bpy.ops.wrinkle.load_map_preset(preset="TABLE_1_1") == {"FINISHED"}
+    names = [ex.name for ex in face.wrinkles.maps.expressions]
+    assert face.wrinkles.maps.expressions["Surprise"].shape_key == "browInnerUp_L"
+    assert face.wrinkles.maps.expressions["Anger"].shape_key == "browDown_L"
+    mapscenes.show_blend_output(face.wrinkles.maps.material)
+    keys = face.data.shape_keys.key_blocks
+    flat = wm.encode(wm.normalize(wm.decode(FLAT)))
+
+    keys["browInnerUp_L"].value = 1.0
+    surprise = _render(render_small, tmp_path, "s.exr")
+    keys["browDown_L"].value = 1.0
+    both = _render(render_small, tmp_path, "sa.exr")
+
+    values = np.array([1.0 if n in ("Surprise", "Anger") else 0.0 for n in names])
+    assert np.abs(both - _expected(face, values, map_a, mask_a, mask_b)).max() < 1e-4
+    dev_surprise = np.abs(surprise - flat).max(axis=2)
+    dev_both = np.abs(both - flat).max(axis=2)
+    half = SIZE // 2
+    assert dev_surprise.min() > 0.01  # surprise wrinkles the whole forehead
+    # inner forehead (Blue, Brown: 0.8 - 0.8): smooth, to the bit
+    assert dev_both[half:].max() < 1e-5
+    # outer forehead (Red, Green: 0.8 - 0.6 = 0.2): a quarter of the slope is left
+    assert dev_both[:half].max() < 0.3 * dev_surprise[:half].max() + 1e-3
+
+
+def test_twenty_expressions_times_eight_zones(render_small, tmp_path):
+    """Every zone sums 20 driven expressions: no expression-length limit, exact sums,
+    per-zone strength and response curve."""
+    rng = np.random.default_rng(1)
+    keys = [f"key{i:02d}" for i in range(20)]
+    mask_a = rng.uniform(0, 0.5, (SIZE, SIZE, 4)).astype(np.float32)
+    mask_b = rng.uniform(0, 0.5, (SIZE, SIZE, 4)).astype(np.float32)
+    map_a = _pd_map(rng)
+    face = mapscenes.skin_plane(SIZE, mask_a, mask_b, map_a, keys=keys)
+    maps = face.wrinkles.maps
+    assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
+    table = rng.uniform(-0.25, 0.25, (20, 8)).round(3)
+    for i, k in enumerate(keys):
+        assert bpy.ops.wrinkle.add_map_expression() == {"FINISHED"}
+        ex = maps.expressions[i]
+        ex.name, ex.source, ex.shape_key = f"E{i}", "SHAPE_KEY", k
+        ex.weights = table[i]
+    maps.zone_strength = rng.uniform(0.5, 2.0, 8)
+    maps.zone_power = rng.uniform(0.25, 2.0, 8)
+    ng = maps.weights_group
+    drivers = ng.animation_data.drivers
+    assert len(drivers) == 20
+    assert all(fc.driver.type == "AVERAGE" and len(fc.driver.variables) == 1 for fc in drivers)
+    mapscenes.show_blend_output(maps.material)
+    values = rng.uniform(0, 1, 20)
+    for k, v in zip(keys, values):
+        face.data.shape_keys.key_blocks[k].value = float(v)
+    got = _render(render_small, tmp_path)
+    want = _expected(face, values, map_a, mask_a, mask_b)
+    sums = wm.expression_sums(values, table)
+    assert (sums < 0).any() and ((sums > 0) & (sums < 1)).any()
+    assert np.abs(got - want).max() < 1e-4
+
+
+@pytest.fixture
+def no_autorun():
+    prefs = bpy.context.preferences.filepaths
+    old = prefs.use_scripts_auto_execute
+    prefs.use_scripts_auto_execute = False
+    yield
+    prefs.use_scripts_auto_execute = old
+
+
+def test_drivers_render_in_a_file_reopened_without_python_or_addon(render_small, tmp_path, tmp_blend,
+                                                                  no_autorun):
+    rng = np.random.default_rng(2)
+    face, map_a, mask_a, mask_b = _forehead_face(rng)
+    assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
+    assert bpy.ops.wrinkle.load_map_preset(preset="TABLE_1_1") == {"FINISHED"}
+    mapscenes.show_blend_output(face.wrinkles.maps.material)
+    names = [ex.name for ex in face.wrinkles.maps.expressions]
+    key = face.data.shape_keys.key_blocks["browInnerUp_L"]
+    for frame, v in ((1, 0.0), (5, 1.0)):
+        key.value = v
+        key.keyframe_insert("value", frame=frame)
+    scene = bpy.context.scene
+    scene.frame_set(5)
+    values = np.array([1.0 if n == "Surprise" else 0.0 for n in names])
+    want5 = _expected(face, values, map_a, mask_a, mask_b)
+    path = tmp_blend("maps")
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    addon_utils.disable("wrinkle_addon", default_set=True)
+    try:
+        bpy.ops.wm.open_mainfile(filepath=str(path), use_scripts=False)
+        scene = bpy.context.scene
+        scene.frame_set(1)
+        scene.frame_set(5)
+        got5 = _render(render_small, tmp_path, "5.exr")
+        scene.frame_set(1)
+        got1 = _render(render_small, tmp_path, "1.exr")
+    finally:
+        addon_utils.enable("wrinkle_addon", default_set=True)
+    assert np.abs(got5 - want5).max() < 1e-4
+    assert np.abs(got1 - wm.encode(wm.normalize(wm.decode(FLAT)))).max() < 1e-5
+
+
+def test_negative_and_large_weights_are_clamped_per_zone(render_small, tmp_path):
+    rng = np.random.default_rng(4)
+    face, map_a, mask_a, mask_b = _forehead_face(rng, keys=())
+    maps = face.wrinkles.maps
+    assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
+    assert bpy.ops.wrinkle.add_map_expression() == {"FINISHED"}
+    ex = maps.expressions[0]
+    ex.value = 1.0
+    ex.weights = (3.0, -2.0, 1.0, 0.5, 0, 0, 0, 0)
+    mapscenes.show_blend_output(maps.material)
+    got = _render(render_small, tmp_path)
+    want = wm.encode(wm.blend(FLAT, [map_a, np.full_like(map_a, 0.5)], mask_a, mask_b,
+                              [[1.0, 0.0, 1.0, 0.5, 0, 0, 0, 0], np.zeros(8)]))
+    assert np.abs(got - want).max() < 1e-4
+
+
+def test_remove_restores_the_previous_normal_input():
+    rng = np.random.default_rng(5)
+    face, *_ = _forehead_face(rng, keys=())
+    mat = face.active_material
+    nt = mat.node_tree
+    bsdf = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
+    nmap = nt.nodes.new("ShaderNodeNormalMap")
+    tex = nt.nodes.new("ShaderNodeTexImage")
+    tex.image = mapscenes.data_image("Existing Normal", FLAT)
+    nt.links.new(tex.outputs["Color"], nmap.inputs["Color"])
+    nt.links.new(nmap.outputs["Normal"], bsdf.inputs["Normal"])
+    assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
+    assert face.wrinkles.maps.base_image.name == "Existing Normal"  # picked up as the base
+    assert bsdf.inputs["Normal"].links[0].from_node.name == "Wrinkle Map Blend"
+    assert bpy.ops.wrinkle.remove_wrinkle_maps() == {"FINISHED"}
+    assert bsdf.inputs["Normal"].links[0].from_node == nmap
+    assert not any(n.name.startswith("Wrinkle") for n in nt.nodes)
+
+
+@pytest.mark.parametrize("case", ["no_uv", "no_principled", "missing_file", "wrong_channels",
+                                  "non_square", "size_mismatch", "linked_group"])
+def test_bad_input_is_refused_and_leaves_the_material_unchanged(case, tmp_path):
+    rng = np.random.default_rng(6)
+    face, *_ = _forehead_face(rng, keys=())
+    maps = face.wrinkles.maps
+    mat = face.active_material
+    if case == "no_uv":
+        face.data.uv_layers.remove(face.data.uv_layers[0])
+        match = "no UV map"
+    elif case == "no_principled":
+        for n in list(mat.node_tree.nodes):
+            if n.type == "BSDF_PRINCIPLED":
+                mat.node_tree.nodes.remove(n)
+        match = "no Principled BSDF"
+    elif case == "missing_file":
+        img = bpy.data.images.new("Lost", 4, 4)
+        img.source = "FILE"
+        img.filepath = str(tmp_path / "nowhere.png")
+        maps.map_a = img
+        match = "no pixels"
+    elif case == "wrong_channels":
+        maps.mask_a = bpy.data.images.new("RGB mask", SIZE, SIZE, alpha=False)  # no zone 4
+        match = "no alpha channel"
+    elif case == "non_square":
+        maps.map_a = mapscenes.data_image("wide", np.full((SIZE, 2 * SIZE, 4), 0.5))
+        match = "must be square"
+    elif case == "size_mismatch":
+        maps.map_b = mapscenes.data_image("small", np.full((SIZE // 2, SIZE // 2, 4), 0.5))
+        match = "differ in size"
+    else:
+        ng = bpy.data.node_groups.new(mapgroup.BLEND_GROUP, "ShaderNodeTree")
+        path = tmp_path / "lib.blend"
+        bpy.data.libraries.write(str(path), {ng})
+        bpy.data.node_groups.remove(ng)
+        with bpy.data.libraries.load(str(path), link=True) as (src, dst):
+            dst.node_groups = [mapgroup.BLEND_GROUP]
+        match = "read-only"
+    before = sorted((n.name, n.bl_idname) for n in mat.node_tree.nodes)
+    links = len(mat.node_tree.links)
+    with pytest.raises(RuntimeError, match=match):  # an ERROR report, the operator cancelled
+        bpy.ops.wrinkle.setup_wrinkle_maps()
+    assert sorted((n.name, n.bl_idname) for n in mat.node_tree.nodes) == before
+    assert len(mat.node_tree.links) == links
+    assert match in wrinklemaps.check(face)

@@ -1,0 +1,353 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Shader node groups of the animated wrinkle maps (Jimenez et al. 2011), built in code.
+
+``Wrinkle Map Blend`` (shared by every material) is Listing 1.1 generalised to K wrinkle
+maps, each with its own 8 zone weights (Oat's stretch and compress maps are K = 2)::
+
+    s_k = Strength * sum_z mask_z * clamp(Map k Zone z, 0, 1)
+    PD:   n = normalize(b_x/b_z + sum_k s_k w'_kx,  b_y/b_z + sum_k s_k w'_ky,  1)
+    diff: n = normalize(b + sum_k s_k 2 decode(d_k))
+
+with ``b = decode(Base Normal)`` a standard tangent-space normal map, converted to a
+partial derivative in the shader so artists keep their base map; ``Difference Maps`` (0
+or 1) picks §1.2.1's difference maps instead of PD maps.  The result goes through a
+Normal Map node (tangent space of the render-active UV map) to the ``Normal`` output.
+:func:`core.wrinkle_maps.blend` is the NumPy reference; a Cycles test compares them.
+
+``Wrinkle Weights <face>`` (one per face) turns the expression values into the zone
+inputs: it holds one Value node per expression (driven by its source) and the table as
+Math nodes, ``strength_z * clamp(sum_e value_e * weight_ez, 0, 1) ** power_z`` per map
+and zone.  Why in the shader and not in driver expressions: a sum over 20 expressions
+overflows Blender's 255-character expression limit (CC/iC Blender Tools issue #388), and
+chained drivers depend on evaluation order.  Here every driver has one variable and no
+expression, so it evaluates with Python auto-run off, the table has no size limit, and
+Cycles folds the whole network to 8 K constants before rendering (every input is a
+constant), so it costs nothing per sample.
+"""
+
+import bpy
+
+from .core.wrinkle_maps import N_ZONES, ZONES
+
+BLEND_GROUP = "Wrinkle Map Blend"
+WEIGHTS_PREFIX = "Wrinkle Weights"
+VERSION = 1
+FLAT = (0.5, 0.5, 0.5, 1.0)  # decodes to 0 in both PD and difference maps
+
+
+class MapError(Exception):
+    """A problem the user must fix; the message is shown as is."""
+
+
+def zone_socket(k, z):
+    return f"Map {k + 1} {ZONES[z][1]}"
+
+
+def map_socket(k):
+    return f"Map {k + 1}"
+
+
+def _inputs(ng):
+    return {s.name: s for s in ng.interface.items_tree if s.item_type == "SOCKET" and s.in_out == "INPUT"}
+
+
+def _new_input(ng, name, kind, default=None, lo=None, hi=None, description=""):
+    s = ng.interface.new_socket(name, in_out="INPUT", socket_type=kind)
+    s.description = description
+    if default is not None:
+        s.default_value = default
+    if lo is not None:
+        s.min_value, s.max_value = lo, hi
+    return s
+
+
+def map_count(ng):
+    names = _inputs(ng)
+    k = 0
+    while map_socket(k) in names:
+        k += 1
+    return k
+
+
+def _ensure_interface(ng, n_maps):
+    """Add missing sockets only, so links from materials that use the group survive."""
+    have = _inputs(ng)
+    if not any(s.in_out == "OUTPUT" for s in ng.interface.items_tree if s.item_type == "SOCKET"):
+        ng.interface.new_socket("Normal", in_out="OUTPUT", socket_type="NodeSocketVector")
+    spec = [
+        ("Strength", "NodeSocketFloat", 1.0, 0.0, 10.0, "Overall strength of the wrinkle maps"),
+        ("Difference Maps", "NodeSocketFloat", 0.0, 0.0, 1.0,
+         "0: the wrinkle maps are partial-derivative maps; 1: they are difference maps "
+         "d = 0.5 + 0.5 (w - b) (Jimenez et al. 2011, §1.2.1)"),
+        ("Base Normal", "NodeSocketColor", (0.5, 0.5, 1.0, 1.0), None, None,
+         "The base tangent-space normal map (standard encoding)"),
+        ("Mask A", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0), None, None, "Zones 1-3 in R, G, B"),
+        ("Mask A Alpha", "NodeSocketFloat", 0.0, 0.0, 1.0, "Zone 4 (alpha of mask A)"),
+        ("Mask B", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0), None, None, "Zones 5-7 in R, G, B"),
+        ("Mask B Alpha", "NodeSocketFloat", 0.0, 0.0, 1.0, "Zone 8 (alpha of mask B)"),
+    ]
+    for k in range(n_maps):
+        spec.append((map_socket(k), "NodeSocketColor", FLAT, None, None,
+                     f"Wrinkle map {k + 1}: a partial-derivative map (or a difference map)"))
+        spec += [(zone_socket(k, z), "NodeSocketFloat", 0.0, -10.0, 10.0,
+                  f"Summed weight of zone {z + 1} ({ZONES[z][1]}) for map {k + 1}; clamped to [0, 1]")
+                 for z in range(N_ZONES)]
+    for name, kind, default, lo, hi, desc in spec:
+        if name not in have:
+            s = _new_input(ng, name, kind, default, lo, hi, desc)
+            if name in ("Difference Maps", "Mask A Alpha", "Mask B Alpha"):
+                s.subtype = "FACTOR"
+
+
+class _Builder:
+    """Small helpers to add shader math nodes in a column layout."""
+
+    def __init__(self, ng):
+        self.ng = ng
+        self.x = 0
+        self.y = 0
+
+    def node(self, kind, **props):
+        n = self.ng.nodes.new(kind)
+        for key, value in props.items():
+            setattr(n, key, value)
+        n.location = (self.x, self.y)
+        self.y -= 160
+        return n
+
+    def link(self, out, inp):
+        self.ng.links.new(out, inp)
+
+    def math(self, op, a, b=None, c=None, clamp=False):
+        n = self.node("ShaderNodeMath", operation=op, use_clamp=clamp)
+        for i, v in enumerate((a, b, c)):
+            if v is None:
+                continue
+            if isinstance(v, (int, float)):
+                n.inputs[i].default_value = v
+            else:
+                self.link(v, n.inputs[i])
+        return n.outputs[0]
+
+    def vmath(self, op, a, b=None, c=None, scale=None):
+        n = self.node("ShaderNodeVectorMath", operation=op)
+        for i, v in enumerate((a, b, c)):
+            if v is None:
+                continue
+            if isinstance(v, tuple):
+                n.inputs[i].default_value = v
+            else:
+                self.link(v, n.inputs[i])
+        if scale is not None:
+            if isinstance(scale, (int, float)):
+                n.inputs["Scale"].default_value = scale
+            else:
+                self.link(scale, n.inputs["Scale"])
+        return n.outputs["Value"] if op in ("DOT_PRODUCT", "LENGTH", "DISTANCE") else n.outputs["Vector"]
+
+    def combine(self, x, y, z):
+        n = self.node("ShaderNodeCombineXYZ")
+        for i, v in enumerate((x, y, z)):
+            if isinstance(v, (int, float)):
+                n.inputs[i].default_value = v
+            else:
+                self.link(v, n.inputs[i])
+        return n.outputs[0]
+
+    def separate(self, v):
+        n = self.node("ShaderNodeSeparateXYZ")
+        self.link(v, n.inputs[0])
+        return n.outputs
+
+    def decode(self, color):
+        """2 c - 1 as a vector."""
+        return self.vmath("MULTIPLY_ADD", color, (2.0, 2.0, 2.0), (-1.0, -1.0, -1.0))
+
+
+def _by_id(sockets, identifier):
+    """ShaderNodeMix has sockets with duplicate names: pick by identifier (BLENDER_NOTES)."""
+    return next(s for s in sockets if s.identifier == identifier)
+
+
+def _build_blend(ng):
+    """(Re)build the inside of the blend group for the maps its interface holds."""
+    ng.nodes.clear()
+    k_maps = map_count(ng)
+    b = _Builder(ng)
+    gin = b.node("NodeGroupInput")
+    gin.location = (-1400, 0)
+    gout = b.node("NodeGroupOutput")
+    gout.location = (1400, 0)
+    o = gin.outputs
+
+    # per map: s_k = Strength * (dot(MaskA, clamp(w1..3)) + A.a clamp(w4) + ... )
+    b.x = -1000
+    scales = []
+    for k in range(k_maps):
+        b.y = -k * 1800
+        # max(w, 0) with the node's clamp: clamp(w, 0, 1), the paper's per-zone clamp
+        w = [b.math("MAXIMUM", o[zone_socket(k, z)], 0.0, clamp=True) for z in range(N_ZONES)]
+        dot_a = b.vmath("DOT_PRODUCT", o["Mask A"], b.combine(w[0], w[1], w[2]))
+        dot_b = b.vmath("DOT_PRODUCT", o["Mask B"], b.combine(w[4], w[5], w[6]))
+        s = b.math("ADD", dot_a, dot_b)
+        s = b.math("MULTIPLY_ADD", o["Mask A Alpha"], w[3], s)
+        s = b.math("MULTIPLY_ADD", o["Mask B Alpha"], w[7], s)
+        scales.append(b.math("MULTIPLY", s, o["Strength"]))
+
+    b.x, b.y = -400, 0
+    base = b.decode(o["Base Normal"])
+    bx, by, bz = b.separate(base)
+    bz = b.math("MAXIMUM", bz, 1e-6)
+    pd = b.combine(b.math("DIVIDE", bx, bz), b.math("DIVIDE", by, bz), 0.0)
+    diff = base
+    for k in range(k_maps):
+        m = b.decode(o[map_socket(k)])
+        mx, my, _mz = b.separate(m)
+        pd = b.vmath("ADD", pd, b.vmath("SCALE", b.combine(mx, my, 0.0), scale=scales[k]))
+        diff = b.vmath("ADD", diff, b.vmath("SCALE", m, scale=b.math("MULTIPLY", scales[k], 2.0)))
+    b.x, b.y = 400, 0
+    n_pd = b.vmath("NORMALIZE", b.vmath("ADD", pd, (0.0, 0.0, 1.0)))
+    n_diff = b.vmath("NORMALIZE", diff)
+    mix = b.node("ShaderNodeMix", data_type="VECTOR", clamp_factor=True)
+    b.link(o["Difference Maps"], mix.inputs["Factor"])
+    b.link(n_pd, _by_id(mix.inputs, "A_Vector"))
+    b.link(n_diff, _by_id(mix.inputs, "B_Vector"))
+    mixed = _by_id(mix.outputs, "Result_Vector")
+    color = b.vmath("MULTIPLY_ADD", mixed, (0.5, 0.5, 0.5), (0.5, 0.5, 0.5))
+    nmap = b.node("ShaderNodeNormalMap", space="TANGENT")
+    b.link(color, nmap.inputs["Color"])
+    b.link(nmap.outputs["Normal"], gout.inputs["Normal"])
+    ng["wrinkle_map_version"] = VERSION
+
+
+def _check_editable(ng):
+    if ng.library is not None or not ng.is_editable:
+        lib = ng.library.filepath if ng.library is not None else "a library"
+        raise MapError(f'The node group "{ng.name}" is linked from {lib} and is read-only: '
+                       "make it local to change it")
+    if ng.bl_idname != "ShaderNodeTree":
+        raise MapError(f'A node group named "{ng.name}" exists but is not a shader group; rename it')
+
+
+def ensure_blend_group(n_maps=2):
+    """The shared ``Wrinkle Map Blend`` group with at least ``n_maps`` maps.
+
+    An existing group is reused: missing sockets are added (existing links stay) and its
+    inside is rebuilt only when it lacks maps or was built by another version.
+    """
+    ng = bpy.data.node_groups.get(BLEND_GROUP)
+    if ng is not None:
+        _check_editable(ng)
+        if ng.get("wrinkle_map_version") == VERSION and map_count(ng) >= n_maps:
+            return ng
+    else:
+        ng = bpy.data.node_groups.new(BLEND_GROUP, "ShaderNodeTree")
+    _ensure_interface(ng, max(n_maps, map_count(ng)))
+    _build_blend(ng)
+    return ng
+
+
+# ---------------------------------------------------------------------------------------
+# The per-face weights group: expression values -> zone inputs of the blend group
+
+
+def expr_node(e):
+    return f"Expression {e}"
+
+
+def weight_node(e, z):
+    return f"Weight {e} {z}"
+
+
+def tension_node(z):
+    return f"Tension {z}"
+
+
+def _layout_key(n_maps, map_of_expression):
+    return f"{n_maps}:" + ",".join(str(m) for m in map_of_expression)
+
+
+def build_weights(ng, names, map_of_expression, n_maps):
+    """Rebuild the weights group for expressions ``names`` (each on wrinkle map
+    ``map_of_expression[e]``, 0-based) and ``n_maps`` maps.
+
+    Per map k and zone z: ``S * clamp(T_z [k = 0] + sum_e value_e * weight_ez, 0, 1) ** P``,
+    a chain of Math MULTIPLY_ADD nodes named :func:`weight_node` (input 1 holds the
+    weight), so weights change without a rebuild (:func:`set_weights`).  Drivers on the
+    group's ``Expression e`` Value nodes are removed with them: the caller re-adds them.
+    """
+    _check_editable(ng)
+    if ng.animation_data is not None:
+        ng.animation_data_clear()
+    ng.nodes.clear()
+    ng.interface.clear()
+    for k in range(n_maps):
+        for z in range(N_ZONES):
+            ng.interface.new_socket(zone_socket(k, z), in_out="OUTPUT", socket_type="NodeSocketFloat")
+    b = _Builder(ng)
+    gout = b.node("NodeGroupOutput")
+    gout.location = (600 + 300 * len(names), 0)
+    values = []
+    b.x = -400
+    for e, name in enumerate(names):
+        n = b.node("ShaderNodeValue", name=expr_node(e), label=name[:60] or f"Expression {e + 1}")
+        values.append(n.outputs[0])
+    tensions = []
+    b.x, b.y = -200, 0
+    for z in range(N_ZONES):
+        n = b.node("ShaderNodeValue", name=tension_node(z), label=f"Tension {ZONES[z][1]}")
+        n.outputs[0].default_value = 0.0
+        tensions.append(n.outputs[0])
+    for k in range(n_maps):
+        for z in range(N_ZONES):
+            b.x, b.y = 0, -(k * N_ZONES + z) * 220
+            acc = tensions[z] if k == 0 else 0.0
+            for e in range(len(names)):
+                if map_of_expression[e] != k:
+                    continue
+                acc = b.math("MULTIPLY_ADD", values[e], 0.0, acc)
+                acc.node.name = weight_node(e, z)
+                b.x += 200
+                b.y += 160
+            clamped = b.math("MAXIMUM", acc, 0.0, clamp=True)
+            shaped = b.math("POWER", clamped, 1.0)
+            shaped.node.name = f"Power {k} {z}"
+            out = b.math("MULTIPLY", shaped, 1.0)
+            out.node.name = f"Strength {k} {z}"
+            b.link(out, gout.inputs[zone_socket(k, z)])
+    ng["wrinkle_layout"] = _layout_key(n_maps, map_of_expression)
+
+
+def weights_layout_matches(ng, map_of_expression, n_maps):
+    return ng.get("wrinkle_layout") == _layout_key(n_maps, map_of_expression)
+
+
+def set_weights(ng, table, manual_values, zone_strength, zone_power, n_maps):
+    """Write the table (E, 8), the manual expression values (E,; None = driven) and the
+    per-zone response into an existing weights group without rebuilding it."""
+    nodes = ng.nodes
+    for e, row in enumerate(table):
+        for z in range(N_ZONES):
+            node = nodes.get(weight_node(e, z))
+            if node is not None and node.inputs[1].default_value != float(row[z]):
+                node.inputs[1].default_value = float(row[z])
+        v = manual_values[e]
+        if v is not None:
+            out = nodes[expr_node(e)].outputs[0]
+            if out.default_value != v:
+                out.default_value = v
+    for k in range(n_maps):
+        for z in range(N_ZONES):
+            p, s = nodes[f"Power {k} {z}"].inputs[1], nodes[f"Strength {k} {z}"].inputs[1]
+            if p.default_value != float(zone_power[z]):
+                p.default_value = float(zone_power[z])
+            if s.default_value != float(zone_strength[z]):
+                s.default_value = float(zone_strength[z])
+
+
+def set_tension(ng, values):
+    """Write the 8 tension-driven zone values (only when they changed)."""
+    for z, v in enumerate(values):
+        node = ng.nodes.get(tension_node(z))
+        if node is not None and node.outputs[0].default_value != float(v):
+            node.outputs[0].default_value = float(v)
