@@ -40,7 +40,7 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import meshio, muscle_objects, stage
+from . import meshio, muscle_objects, stage, wrinklemaps
 from .core import mesh as core_mesh
 from .core import system
 
@@ -206,17 +206,26 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
 
 
 def _scan(scene):
-    """The faces with wrinkles on, and the session_uid of every object, in one pass."""
-    faces, in_scene = [], set()
+    """The faces with wrinkles on, the faces with tension-driven wrinkle maps, and the
+    session_uid of every object, in one pass."""
+    faces, tension, in_scene = [], [], set()
     for ob in scene.objects:
         in_scene.add(ob.session_uid)
-        if ob.type == "MESH" and ob.wrinkles.enabled:
-            faces.append(ob)
-    return faces, in_scene
+        if ob.type == "MESH":
+            if ob.wrinkles.enabled:
+                faces.append(ob)
+            if wrinklemaps.wants_tension(ob):
+                tension.append(ob)
+    return faces, tension, in_scene
 
 
 def update_scene(scene, depsgraph, only_if_changed=False, in_place=False):
-    faces, in_scene = _scan(scene)
+    faces, tension, in_scene = _scan(scene)
+    for ob in tension:
+        try:
+            wrinklemaps.update_tension(ob, depsgraph)
+        except Exception as exc:  # a handler must never raise into Blender
+            wrinklemaps.set_status(ob, f"Tension weights skipped: {exc}")
     meshes = [ob.data for ob in faces]
     for ob in faces:
         if meshes.count(ob.data) > 1:  # linked duplicates would overwrite each other

@@ -13,7 +13,8 @@ contraction or any property.
 import bpy
 import numpy as np
 
-from . import mapgroup
+from . import mapgroup, meshio
+from .core import wrinkle_maps as wm
 from .core.wrinkle_maps import N_ZONES
 
 BLEND_NODE = "Wrinkle Map Blend"
@@ -23,6 +24,7 @@ IMAGE_NODES = (("base_image", "Wrinkle Base"), ("map_a", "Wrinkle Map 1"), ("map
                ("mask_a", "Wrinkle Mask A"), ("mask_b", "Wrinkle Mask B"))
 _OURS = {BLEND_NODE, WEIGHTS_NODE, UV_NODE} | {n for _p, n in IMAGE_NODES}
 _problems = {}  # face session_uid -> {expression index: message}
+_tension = {}  # face session_uid -> (key, rest, edges, vertex masks (V, 8))
 _status = {}  # face session_uid -> message
 
 
@@ -32,6 +34,13 @@ class MapError(mapgroup.MapError):
 
 def status(face):
     return _status.get(face.session_uid, "")
+
+
+def set_status(face, message):
+    if message:
+        _status[face.session_uid] = message
+    else:
+        _status.pop(face.session_uid, None)
 
 
 def binding_problem(face, e):
@@ -299,6 +308,7 @@ def _bind(face, ng):
 def sync(face, rebind=False):
     """Bring the weights group and the blend node in step with the table."""
     maps = face.wrinkles.maps
+    _tension.pop(face.session_uid, None)  # masks or UVs may have changed
     ng = maps.weights_group
     if ng is None or maps.material is None:
         return
@@ -326,6 +336,64 @@ def sync_quietly(face, rebind=False):
     try:
         sync(face, rebind)
     except mapgroup.MapError as exc:
-        _status[face.session_uid] = str(exc)
+        set_status(face, str(exc))
     else:
-        _status.pop(face.session_uid, None)
+        set_status(face, "")
+
+
+# ---------------------------------------------------------------------------------------
+# tension-driven zone weights
+
+
+def wants_tension(face):
+    maps = face.wrinkles.maps
+    return maps.weight_mode == "TENSION" and maps.weights_group is not None and maps.material is not None
+
+
+def _image_pixels(img):
+    px = np.empty(img.size[0] * img.size[1] * 4, np.float32)
+    img.pixels.foreach_get(px)
+    return px.reshape(img.size[1], img.size[0], 4)
+
+
+def _tension_statics(face, maps):
+    me = face.data
+    uv_name = maps.uv_map or next((uv.name for uv in me.uv_layers if uv.active_render), "")
+    masks = (maps.mask_a, maps.mask_b)
+    key = (meshio.topology_key(me), uv_name) + tuple(
+        (m.name, tuple(m.size)) if m is not None else None for m in masks)
+    cached = _tension.get(face.session_uid)
+    if cached is not None and cached[0] == key:
+        return cached
+    if uv_name not in me.uv_layers:
+        raise mapgroup.MapError(f'"{face.name}" has no UV map "{uv_name}"')
+    corner, _starts, _sizes = meshio.read_polygons(me)
+    uv = np.empty(len(me.loops) * 2, np.float32)
+    me.uv_layers[uv_name].uv.foreach_get("vector", uv)
+    verts, first = np.unique(corner, return_index=True)
+    vertex_uv = np.zeros((len(me.vertices), 2), np.float32)
+    vertex_uv[verts] = uv.reshape(-1, 2)[first]
+    vm = np.zeros((len(me.vertices), N_ZONES), np.float32)
+    for i, img in enumerate(masks):
+        if img is not None and img.size[0] and img.size[1]:
+            vm[:, 4 * i: 4 * i + 4] = wm.sample_nearest(_image_pixels(img), vertex_uv)
+    cached = (key, meshio.read_vectors(me, "position"), meshio.read_edges(me), vm)
+    _tension[face.session_uid] = cached
+    return cached
+
+
+def update_tension(face, depsgraph):
+    """Write the tension-driven zone values (``core.wrinkle_maps.zone_tension``) for this
+    frame: the skin's mean compression in each zone, from the deformed skin before any
+    wrinkle (``wrinkle_skin`` when geometric wrinkles are on)."""
+    maps = face.wrinkles.maps
+    _key, rest, edges, vm = _tension_statics(face, maps)
+    ev = face.evaluated_get(depsgraph).data
+    name = "wrinkle_skin" if ev.attributes.get("wrinkle_skin") is not None else "position"
+    if len(ev.vertices) < len(rest):
+        raise mapgroup.MapError("A modifier removes vertices before the wrinkle maps can measure "
+                                "the tension")
+    skin = meshio.read_vector_prefix(ev, name, len(rest), np.empty_like(rest))
+    values = wm.zone_tension(vm, wm.vertex_compression(rest, skin, edges), maps.tension_gain)
+    mapgroup.set_tension(maps.weights_group, values)
+    return values

@@ -20,11 +20,14 @@ def data_image(name, pixels, closest=True):
     return img
 
 
-def plane_scene(size):
+def plane_scene(size, cuts=0):
     """A 2 x 2 plane at z = 0 with UVs over [0, 1]^2 (u along +X, v along +Y) and an
     orthographic camera looking down -Z that frames it exactly: pixel (i, j) of a
     ``size``-pixel render sees texel (i, j) of a ``size``-texel image."""
-    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    if cuts:
+        bpy.ops.mesh.primitive_grid_add(x_subdivisions=cuts, y_subdivisions=cuts, size=2.0)
+    else:
+        bpy.ops.mesh.primitive_plane_add(size=2.0)
     plane = bpy.context.active_object
     cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
     cam.data.type = "ORTHO"
@@ -102,10 +105,10 @@ def random_normal_map(rng, size, max_slope=0.35):
     return 0.5 + 0.5 * n
 
 
-def skin_plane(size, mask_a, mask_b, map_a, base=None, keys=()):
+def skin_plane(size, mask_a, mask_b, map_a, base=None, keys=(), cuts=0):
     """The plane with a Principled "Skin" material, shape keys ``keys`` (at 0) and the
     wrinkle-map images set on ``plane.wrinkles.maps`` (not wired yet)."""
-    plane = plane_scene(size)
+    plane = plane_scene(size, cuts)
     mat = bpy.data.materials.new("Skin")
     mat.use_nodes = True
     plane.data.materials.append(mat)

@@ -17,9 +17,9 @@ def _pd_map(rng):
     return wm.normal_to_derivative(mapscenes.random_normal_map(rng, SIZE, 0.3))
 
 
-def _expected(face, values, map_a, mask_a, mask_b, base=FLAT):
+def _expected(face, values, map_a, mask_a, mask_b, base=FLAT, tension=0.0):
     maps = face.wrinkles.maps
-    sums = wm.expression_sums(values, wrinklemaps.table(maps))
+    sums = wm.expression_sums(values, wrinklemaps.table(maps)) + tension
     w = wm.zone_response(sums, np.array(maps.zone_strength), np.array(maps.zone_power))
     return wm.encode(wm.blend(base, [map_a, np.full_like(map_a, 0.5)], mask_a, mask_b,
                               [w, np.zeros(8)], maps.strength))
@@ -29,7 +29,7 @@ def _render(render_small, tmp_path, name="r.exr"):
     return render_small(bpy.context.scene, tmp_path / name, size=SIZE, samples=1)[..., :3]
 
 
-def _forehead_face(rng, keys=("browInnerUp_L", "browDown_L")):
+def _forehead_face(rng, keys=("browInnerUp_L", "browDown_L"), cuts=0):
     """Zones 1-4 (the forehead) each cover a quarter of the plane; mask B is empty."""
     mask_a = np.zeros((SIZE, SIZE, 4), np.float32)
     half = SIZE // 2
@@ -37,7 +37,7 @@ def _forehead_face(rng, keys=("browInnerUp_L", "browDown_L")):
     mask_a[half:, :half, 2] = mask_a[half:, half:, 3] = 1.0
     mask_b = np.zeros((SIZE, SIZE, 4), np.float32)
     map_a = _pd_map(rng)
-    face = mapscenes.skin_plane(SIZE, mask_a, mask_b, map_a, keys=keys)
+    face = mapscenes.skin_plane(SIZE, mask_a, mask_b, map_a, keys=keys, cuts=cuts)
     return face, map_a, mask_a, mask_b
 
 
@@ -227,3 +227,50 @@ def test_bad_input_is_refused_and_leaves_the_material_unchanged(case, tmp_path):
     assert sorted((n.name, n.bl_idname) for n in mat.node_tree.nodes) == before
     assert len(mat.node_tree.links) == links
     assert match in wrinklemaps.check(face)
+
+
+def test_tension_mode_follows_the_measured_compression_in_renders(render_small, tmp_path):
+    """Zone weights from the skin's compression, frame by frame, in background renders:
+    a shape key squashes the plane along v by 30 % on frame 3, not on frame 1."""
+    rng = np.random.default_rng(7)
+    face, map_a, mask_a, mask_b = _forehead_face(rng, keys=("Squash",), cuts=9)
+    # the rest plane is 1/0.7 taller than the camera's view; "Squash" brings it to the
+    # 2 x 2 square the camera frames exactly, so frame 3 maps pixels to texels 1:1
+    keys = face.data.shape_keys.key_blocks
+    co = np.empty(len(face.data.vertices) * 3, np.float32)
+    keys["Basis"].points.foreach_get("co", co)
+    tall = co.reshape(-1, 3) * np.array([1.0, 1 / 0.7, 1.0], np.float32)
+    for block in (keys["Basis"],):
+        block.points.foreach_set("co", tall.ravel())
+    face.data.vertices.foreach_set("co", tall.ravel())
+    key = keys["Squash"]
+    key.points.foreach_set("co", co)
+    for frame, v in ((1, 0.0), (3, 1.0)):
+        key.value = v
+        key.keyframe_insert("value", frame=frame)
+    maps = face.wrinkles.maps
+    maps.weight_mode, maps.tension_gain = "TENSION", 2.0
+    assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
+    mapscenes.show_blend_output(maps.material)
+    scene = bpy.context.scene
+    scene.frame_set(3)
+    # edges along v shrink by 30 %, along u not: an inner vertex's mean shrinkage is 0.15
+    # (0.1 on the borders along v), so each forehead zone weighs about 2 * 0.15
+    tension = [maps.weights_group.nodes[f"Tension {z}"].outputs[0].default_value for z in range(8)]
+    assert all(0.25 < t <= 0.3 + 1e-6 for t in tension[:4]) and tension[4:] == [0.0] * 4
+    got3 = _render(render_small, tmp_path, "3.exr")
+    want3 = _expected(face, np.zeros(0), map_a, mask_a, mask_b, tension=np.array(tension))
+    scene.frame_set(1)
+    got1 = _render(render_small, tmp_path, "1.exr")
+    assert np.abs(got3 - want3).max() < 1e-4
+    assert np.abs(got1 - wm.encode(wm.normalize(wm.decode(FLAT)))).max() < 1e-5
+    # render(animation=True) sets the frames itself
+    scene.frame_start, scene.frame_end = 3, 3
+    scene.frame_set(1)
+    scene.render.filepath = str(tmp_path / "anim_")
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    bpy.ops.render.render(animation=True)
+    img = bpy.data.images.load(str(tmp_path / "anim_0003.exr"))
+    px = np.empty(SIZE * SIZE * 4, np.float32)
+    img.pixels.foreach_get(px)
+    assert np.abs(px.reshape(SIZE, SIZE, 4)[..., :3] - want3).max() < 1e-4

@@ -149,9 +149,9 @@ def blend(base_rgb, wrinkle_rgbs, mask_a, mask_b, weights, strength=1.0, differe
         raise ValueError(f"{len(maps)} wrinkle maps but {len(weights)} rows of zone weights")
     base = decode(np.asarray(base_rgb)[..., :3])
     if difference:
-        n = base.copy()
+        n = base
         for w, m in zip(weights, maps):
-            n += (strength * mask_sum(mask_a, mask_b, w))[..., None] * 2.0 * decode(np.asarray(m)[..., :3])
+            n = n + (strength * mask_sum(mask_a, mask_b, w))[..., None] * 2.0 * decode(np.asarray(m)[..., :3])
         return normalize(n)
     d = base[..., :2] / np.maximum(base[..., 2:3], _EPS)
     for w, m in zip(weights, maps):
@@ -186,3 +186,33 @@ def zone_tension(vertex_masks, compression, gain=1.0):
     total = m.sum(axis=0)
     mean = (c @ m) / np.where(total > 0, total, 1.0)
     return np.clip(gain * np.where(total > 0, mean, 0.0), 0.0, 1.0).astype(np.float32)
+
+
+def vertex_compression(rest, skin, edges):
+    """Per-vertex compression (V,): the mean over a vertex's edges of the shrinkage
+    ``max(tau, 0)``, tau = (L - l) / L (Zhang eq. 9); 0 on stretched or rest skin."""
+    from .zhang import edge_shrinkage
+
+    rest = np.asarray(rest, np.float32).reshape(-1, 3)
+    skin = np.asarray(skin, np.float32).reshape(-1, 3)
+    e = np.asarray(edges, np.int64).reshape(-1, 2)
+    rest_len = np.linalg.norm(rest[e[:, 1]] - rest[e[:, 0]], axis=1)
+    length = np.linalg.norm(skin[e[:, 1]] - skin[e[:, 0]], axis=1)
+    tau = np.maximum(np.nan_to_num(edge_shrinkage(rest_len, length)), 0.0)
+    n = len(rest)
+    total = np.bincount(e.ravel(), weights=np.repeat(tau, 2), minlength=n)
+    count = np.bincount(e.ravel(), minlength=n)
+    return (total / np.maximum(count, 1)).astype(np.float32)
+
+
+def sample_nearest(image, uv):
+    """Nearest-texel lookup of ``image`` (H, W, C), row 0 at v = 0, at ``uv`` (V, 2).
+    UVs outside [0, 1] wrap like Blender's default Repeat extension; 1.0 itself is the
+    last texel (a vertex on the border of the UV square belongs to it)."""
+    image = np.asarray(image)
+    h, w = image.shape[:2]
+    uv = np.nan_to_num(np.asarray(uv, np.float64).reshape(-1, 2))
+    uv = np.where((uv < 0.0) | (uv > 1.0), np.mod(uv, 1.0), uv)
+    col = np.floor(uv[:, 0] * w).astype(np.int64).clip(0, w - 1)
+    row = np.floor(uv[:, 1] * h).astype(np.int64).clip(0, h - 1)
+    return image[row, col]
