@@ -20,7 +20,7 @@ from bpy.props import (
 from bpy_extras import view3d_utils
 from mathutils import Vector
 
-from . import bake, muscle_objects, pipeline, refine, stage
+from . import bake, muscle_objects, pipeline, refine, stage, wrinklemaps
 from .core import presets
 
 MUSCLE_KINDS = [
@@ -536,18 +536,37 @@ class WRINKLE_OT_bake(bpy.types.Operator):
         scene = context.scene
         start = scene.frame_start if self.frame_start < 0 else self.frame_start
         end = scene.frame_end if self.frame_end < 0 else self.frame_end
+        geometry = stage.find_modifier(face) is not None
+        maps = face.wrinkles.maps.weights_group is not None
+        if not geometry and not maps:
+            self.report({"ERROR"}, f'"{face.name}" has neither wrinkles nor wrinkle maps to bake')
+            return {"CANCELLED"}
         path = self.filepath or bake.default_path(face)
-        wm = _wm_progress(context, 2)
-        print(f"Expression Wrinkles: baking {face.name} frames {start}-{end} to {path}")
+        n = end - start + 1
+        wm = _wm_progress(context, 2 * n)
+        done = []
         try:
-            wm.progress_update(1)
-            baked = bake.bake(context, face, path, start, end)
+            if geometry:
+                print(f"Expression Wrinkles: baking {face.name} frames {start}-{end} to {path}")
+                wm.progress_update(1)
+                baked = bake.bake(context, face, path, start, end)
+                done.append(f'frames {start}-{end} to {path}; "{baked.name}" renders them')
+            if maps:
+                def progress(i, total):
+                    wm.progress_update(n + i)
+                    if bpy.app.background and (i == total or i % 25 == 0):
+                        print(f"Expression Wrinkles: wrinkle-map weights, frame {i}/{total}")
+
+                k = wrinklemaps.bake_weights(face, scene, start, end, progress)
+                if k:
+                    done.append(f"{k} wrinkle-map weight channel(s) keyed")
         except (bake.BakeError, RuntimeError, OSError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
         finally:
             wm.progress_end()
-        self.report({"INFO"}, f'Baked frames {start}-{end} to {path}; "{baked.name}" renders them')
+        self.report({"INFO"}, "Baked " + "; ".join(done) if done else
+                    "Nothing needed baking: the wrinkle maps' drivers need no add-on")
         return {"FINISHED"}
 
 
@@ -561,13 +580,17 @@ class WRINKLE_OT_free_bake(bpy.types.Operator):
     @classmethod
     def poll(cls, context):
         face = _face(context)
-        if face is None or face.type != "MESH" or face.wrinkles.bake_object is None:
+        if face is None or face.type != "MESH" or (
+                face.wrinkles.bake_object is None
+                and not wrinklemaps.baked_paths(face.wrinkles.maps.weights_group)):
             cls.poll_message_set("This face has no bake")
             return False
         return True
 
     def execute(self, context):
-        bake.free(_face(context))
+        face = _face(context)
+        bake.free(face)
+        wrinklemaps.free_weights(face)
         return {"FINISHED"}
 
 

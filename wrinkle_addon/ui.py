@@ -78,7 +78,7 @@ class VIEW3D_PT_wrinkle_face(bpy.types.Panel):
         layout.operator("wrinkle.refine", icon="MOD_SUBSURF")
         row = layout.row(align=True)
         row.operator("wrinkle.bake", icon="FILE_CACHE")
-        if s.bake_object is not None:
+        if s.bake_object is not None or wrinklemaps.baked_paths(s.maps.weights_group):
             row.operator("wrinkle.free_bake", icon="TRASH")
 
 

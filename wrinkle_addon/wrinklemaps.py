@@ -281,10 +281,21 @@ def _target(face, ex):
     return None
 
 
+def _value_path(node_name):
+    return f'nodes["{node_name}"].outputs[0].default_value'
+
+
+def baked_paths(ng):
+    return set(ng.get("wrinkle_baked", [])) if ng is not None else set()
+
+
 def _bind(face, ng):
     problems = {}
+    baked = baked_paths(ng)
     for e, ex in enumerate(face.wrinkles.maps.expressions):
-        path = f'nodes["{mapgroup.expr_node(e)}"].outputs[0].default_value'
+        path = _value_path(mapgroup.expr_node(e))
+        if path in baked:
+            continue
         ng.driver_remove(path)
         target = _target(face, ex)
         if isinstance(target, str):
@@ -395,5 +406,69 @@ def update_tension(face, depsgraph):
                                 "the tension")
     skin = meshio.read_vector_prefix(ev, name, len(rest), np.empty_like(rest))
     values = wm.zone_tension(vm, wm.vertex_compression(rest, skin, edges), maps.tension_gain)
-    mapgroup.set_tension(maps.weights_group, values)
+    if _value_path(mapgroup.tension_node(0)) not in baked_paths(maps.weights_group):
+        mapgroup.set_tension(maps.weights_group, values)
     return values
+
+
+# ---------------------------------------------------------------------------------------
+# farm-safe bake of the values that need the add-on
+
+
+def bake_weights(face, scene, frame_start, frame_end, progress=None):
+    """Key, frame by frame, the weights-group values that only the add-on can compute:
+    expressions driven by a muscle's contraction (an add-on property, which a farm without
+    the add-on cannot resolve) and the tension-driven zones.  Their drivers are removed
+    while baked.  Shape-key and property drivers stay: they need no add-on.  Returns the
+    number of baked channels."""
+    maps = face.wrinkles.maps
+    ng = maps.weights_group
+    if ng is None:
+        return 0
+    free_weights(face)
+    muscle_rows = [e for e, ex in enumerate(maps.expressions) if ex.source == "MUSCLE" and ex.muscle]
+    nodes = [mapgroup.expr_node(e) for e in muscle_rows]
+    if wants_tension(face):
+        nodes += [mapgroup.tension_node(z) for z in range(N_ZONES)]
+    if not nodes:
+        return 0
+    frames = range(frame_start, frame_end + 1)
+    values = np.zeros((len(frames), len(nodes)), np.float32)
+    current = scene.frame_current
+    for i, frame in enumerate(frames):
+        scene.frame_set(frame)  # drivers, animation and our handler (tension) run
+        dg = bpy.context.evaluated_depsgraph_get()
+        for j, e in enumerate(muscle_rows):
+            values[i, j] = maps.expressions[e].muscle.evaluated_get(dg).wrinkle_muscle.contraction
+        for j in range(len(muscle_rows), len(nodes)):
+            values[i, j] = ng.nodes[nodes[j]].outputs[0].default_value
+        if progress is not None:
+            progress(i + 1, len(frames))
+    paths = [_value_path(n) for n in nodes]
+    for path, node_name, column in zip(paths, nodes, values.T):
+        ng.driver_remove(path)
+        out = ng.nodes[node_name].outputs[0]
+        for frame, v in zip(frames, column):
+            out.default_value = float(v)
+            out.keyframe_insert("default_value", frame=frame)
+    ng["wrinkle_baked"] = paths
+    scene.frame_set(current)
+    return len(paths)
+
+
+def free_weights(face):
+    """Undo :func:`bake_weights`: drop the keys and bring the drivers back."""
+    ng = face.wrinkles.maps.weights_group
+    baked = baked_paths(ng)
+    if not baked:
+        return
+    ad = ng.animation_data
+    if ad is not None and ad.action is not None:
+        from bpy_extras import anim_utils
+
+        slot = getattr(ad, "action_slot", None)
+        bag = anim_utils.action_get_channelbag_for_slot(ad.action, slot) if slot else ad.action
+        for fc in [fc for fc in bag.fcurves if fc.data_path in baked]:
+            bag.fcurves.remove(fc)
+    del ng["wrinkle_baked"]
+    sync(face, rebind=True)

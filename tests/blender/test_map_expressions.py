@@ -274,3 +274,49 @@ def test_tension_mode_follows_the_measured_compression_in_renders(render_small, 
     px = np.empty(SIZE * SIZE * 4, np.float32)
     img.pixels.foreach_get(px)
     assert np.abs(px.reshape(SIZE, SIZE, 4)[..., :3] - want3).max() < 1e-4
+
+
+def test_muscle_driven_weights_bake_for_a_farm_without_the_addon(render_small, tmp_path, tmp_blend,
+                                                                 no_autorun):
+    """A muscle's contraction is an add-on property: the bake keys the expression value,
+    so a file opened without the add-on renders the same frames."""
+    rng = np.random.default_rng(8)
+    face, map_a, mask_a, mask_b = _forehead_face(rng, keys=())
+    muscle = bpy.data.objects.new("Frontalis", bpy.data.meshes.new("Frontalis"))
+    bpy.context.scene.collection.objects.link(muscle)
+    muscle.wrinkle_muscle.is_muscle = True
+    for frame, c in ((1, 0.0), (4, 1.0)):
+        muscle.wrinkle_muscle.contraction = c
+        muscle.keyframe_insert("wrinkle_muscle.contraction", frame=frame)
+    bpy.context.view_layer.objects.active = face
+    maps = face.wrinkles.maps
+    assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
+    assert bpy.ops.wrinkle.add_map_expression() == {"FINISHED"}
+    ex = maps.expressions[0]
+    ex.source, ex.muscle, ex.weights = "MUSCLE", muscle, (0.5, 0.5, 1.0, 1.0, 0, 0, 0, 0)
+    mapscenes.show_blend_output(maps.material)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 4
+    scene.frame_set(3)
+    live3 = _render(render_small, tmp_path, "live3.exr")
+    c3 = muscle.wrinkle_muscle.contraction  # keyed 0 -> 1 over frames 1-4 (Bezier ease)
+    assert 0.2 < c3 < 0.95
+    assert np.abs(live3 - _expected(face, [c3], map_a, mask_a, mask_b)).max() < 1e-4
+    assert bpy.ops.wrinkle.bake() == {"FINISHED"}
+    assert not maps.weights_group.animation_data.drivers
+    path = tmp_blend("farm")
+    name = face.name
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    addon_utils.disable("wrinkle_addon", default_set=True)
+    try:
+        bpy.ops.wm.open_mainfile(filepath=str(path), use_scripts=False)
+        bpy.context.scene.frame_set(3)
+        farm3 = _render(render_small, tmp_path, "farm3.exr")
+    finally:
+        addon_utils.enable("wrinkle_addon", default_set=True)
+    assert np.abs(farm3 - live3).max() < 1e-5
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    face = bpy.data.objects[name]
+    bpy.context.view_layer.objects.active = face
+    assert bpy.ops.wrinkle.free_bake() == {"FINISHED"}
+    assert len(face.wrinkles.maps.weights_group.animation_data.drivers) == 1
