@@ -2,11 +2,13 @@
 
     python sample_scenes/demo.py [--out out] [--size 512] [--samples 32] [--quick]
 
-For each scene (the procedural head, the forehead patch, and the scanned ICT head when
-../shared/data/ict_head.npz exists) it saves the .blend, renders each expression frame
-twice - wrinkle strength 0 (the same deformation, no wrinkles) and 1 - and writes
+For each scene (the procedural head, the forehead patch, and, when
+../shared/data/ict_head.npz exists, the scanned ICT head with geometric wrinkles and again
+with generated wrinkle maps) it saves the .blend, renders each expression frame twice -
+wrinkle strength 0 (the same deformation, no wrinkles) and 1 - and writes
 ``out/contact_sheet.png``: one row per scene, each expression as a without/with pair, and
-``out/before_after.png``: Surprise and Frowning of the last head, without / with.
+``out/before_after.png``: Surprise and Frowning of the ICT head (or the procedural head),
+without / with.
 Blender's own render log goes to ``out/render.log``.
 """
 
@@ -25,7 +27,7 @@ import bpy  # noqa: E402, I001  (bpy first: it makes addon_utils importable)
 import addon_utils  # noqa: E402
 import numpy as np  # noqa: E402
 
-from sample_scenes import forehead_patch, head, scanned_head  # noqa: E402
+from sample_scenes import forehead_patch, head, scanned_head, scanned_head_maps  # noqa: E402
 from sample_scenes.lib import scene_setup  # noqa: E402
 
 _T0 = time.perf_counter()
@@ -89,7 +91,11 @@ def contact_sheet(rows, path, gap=8):
     save_rgba(sheet, path)
 
 
-def render_scene(name, builder, out, size, samples):
+def geometric_toggle(face, on):
+    face.wrinkles.strength = 1.0 if on else 0.0
+
+
+def render_scene(name, builder, out, size, samples, toggle=geometric_toggle):
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
     log(f"{name}: building")
     face, shots = builder()
@@ -102,17 +108,17 @@ def render_scene(name, builder, out, size, samples):
     scene = bpy.context.scene
     row = []
     for shot, frame in shots.items():
-        for label, strength in (("without", 0.0), ("with", 1.0)):
-            face.wrinkles.strength = strength
+        for label, on in (("without", False), ("with", True)):
+            toggle(face, on)
             scene.frame_set(frame)
-            path = out / f"{name}_{shot.lower()}_{label}.png"
+            path = out / f"{name}_{shot.lower().replace(' + ', '_').replace(' ', '_')}_{label}.png"
             scene.render.filepath = str(path)
             t = time.perf_counter()
             with quiet(out / "render.log"):
                 bpy.ops.render.render(write_still=True)
             log(f"{name}: {shot} {label} wrinkles -> {path.name} ({time.perf_counter() - t:.1f}s)")
             row.append(path)
-    face.wrinkles.strength = 1.0
+    toggle(face, True)
     return row
 
 
@@ -129,21 +135,24 @@ def main(argv=None):
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     addon_utils.enable("wrinkle_addon", default_set=True)
-    jobs = [("forehead_patch", forehead_patch.build), ("head", head.build)]
+    jobs = [("forehead_patch", forehead_patch.build, geometric_toggle),
+            ("head", head.build, geometric_toggle)]
     if scanned_head.available():
-        jobs.append(("scanned_head", scanned_head.build))
+        jobs.append(("scanned_head", scanned_head.build, geometric_toggle))
+        jobs.append(("scanned_head_maps", scanned_head_maps.build, scanned_head_maps.toggle))
     else:
         log(f"skipping the ICT head: {scanned_head.DATA} not found")
     rows = []
-    for i, (name, builder) in enumerate(jobs, 1):
+    for i, (name, builder, toggle) in enumerate(jobs, 1):
         log(f"scene {i}/{len(jobs)}: {name}")
-        rows.append(render_scene(name, builder, out, args.size, args.samples))
+        rows.append(render_scene(name, builder, out, args.size, args.samples, toggle))
     sheet = out / "contact_sheet.png"
     contact_sheet(rows, sheet)
-    # README picture: the last head scene's Surprise and Frowning, without / with
-    pick = [p for p in rows[-1] if "surprise" in p.name or "frowning" in p.name]
+    # README picture: the geometric head's Surprise and Frowning, without / with
+    geometric = [r for (name, _b, t), r in zip(jobs, rows) if t is geometric_toggle][-1]
+    pick = [p for p in geometric if "surprise" in p.name or "frowning" in p.name]
     contact_sheet([pick[:2], pick[2:4]], out / "before_after.png")
-    log(f"contact sheet -> {sheet} (rows: {', '.join(n for n, _ in jobs)}; "
+    log(f"contact sheet -> {sheet} (rows: {', '.join(j[0] for j in jobs)}; "
         "each expression as a without / with wrinkles pair)")
     bpy.ops.wm.read_factory_settings(use_empty=True)  # avoids the bpy 4.5 exit hang
 

@@ -1,9 +1,565 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""(being written this session)"""
+"""Wrinkle maps and zone masks generated from the face itself (issue 3, section 4).
+
+* **Bake Wrinkle Map**: the wrinkle height W of the foundation's muscle model (Zhang 2005
+  eq. 4, ``core.system.heights``) per vertex, rasterised in UV space and turned into a
+  partial-derivative (PD) wrinkle map (Jimenez et al. 2011, §1.2) by ``core.uvbake``.
+* **Generate Masks**: the 8 zone masks of §1.1 (Table 1.1's zones) from the muscles'
+  wrinkling regions or from vertex groups, with soft borders, packed into two RGBA images.
+
+Thin glue: the maths is in ``core/uvbake.py``.  Everything is computed and checked
+before any image is created, so bad input creates nothing.
+"""
+
+import dataclasses
 
 import bpy
+import numpy as np
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, StringProperty
 
-classes = ()
+from . import meshio, muscle_objects, stage
+from .core import mesh as core_mesh
+from .core import system, uvbake, wrinkle_maps
+from .core.muscles import muscle_field
+
+MODES = (
+    ("MUSCLES", "Each Muscle Contracted",
+     "Every muscle at full contraction, one at a time, on the rest face; the wrinkle heights "
+     "are summed. The map shows every wrinkle the muscles can make"),
+    ("POSE", "Current Pose",
+     "The wrinkles of the current frame: the deformed skin (shape keys, bones) and the "
+     "muscles' current contractions"),
+)
+MAP_RESOLUTIONS = tuple((str(r), f"{r} x {r}", f"Bake a {r} x {r} pixel map")
+                        for r in (256, 512, 1024, 2048, 4096))
+MASK_RESOLUTIONS = tuple((str(r), f"{r} x {r}", f"Masks of {r} x {r} pixels")
+                         for r in (64, 128, 256, 512, 1024))
+SOURCES = (
+    ("MUSCLES", "Muscle Regions",
+     "Each zone is the wrinkling region of the muscles of its role (Frontalis, Corrugator, "
+     "Nasalis, Mentalis), on their side of the face"),
+    ("VERTEX_GROUPS", "Vertex Groups",
+     "Each zone is a vertex group of the face: by default 'Wrinkle Zone 1' to 'Wrinkle Zone 8'"),
+)
+DEFAULT_GROUPS = tuple(f"Wrinkle Zone {z + 1}" for z in range(wrinkle_maps.N_ZONES))
+
+
+class BakeError(Exception):
+    """Bad input for a bake; the message is meant for the user."""
+
+
+# --------------------------------------------------------------------------- reading the face
+def face_problem(face):
+    """Why ``face`` cannot be baked, or None."""
+    if face is None:
+        return "No active object: select the face mesh"
+    if face.type != "MESH":
+        return f'"{face.name}" is a {face.type.lower()}, not a mesh: select the face mesh'
+    if face.wrinkle_muscle.is_muscle:
+        return f'"{face.name}" is a muscle, not a face'
+    if face.mode == "EDIT":  # the mesh's arrays are not readable in Edit Mode
+        return f'"{face.name}" is in Edit Mode: switch to Object Mode to bake'
+    if len(face.data.polygons) == 0:
+        return f'"{face.name}" has no faces: a map needs a surface with UVs'
+    return None
+
+
+def _check_face(face):
+    why = face_problem(face)
+    if why:
+        raise BakeError(why)
+
+
+def uv_layer(face, uv_map=None):
+    """The UV map named ``uv_map``; empty or None: the face's wrinkle-map UV map if set,
+    else the active render UV map.  Raises BakeError."""
+    me = face.data
+    if len(me.uv_layers) == 0:
+        raise BakeError(f'"{face.name}" has no UV map: unwrap it first (UV > Unwrap)')
+    name = uv_map or ""
+    if not name:
+        maps = getattr(face.wrinkles, "maps", None)
+        name = getattr(maps, "uv_map", "") or ""
+    if name:
+        layer = me.uv_layers.get(name)
+        if layer is None:
+            names = ", ".join(f'"{lay.name}"' for lay in me.uv_layers)
+            raise BakeError(f'"{face.name}" has no UV map named "{name}" (it has {names})')
+        return layer
+    for layer in me.uv_layers:
+        if layer.active_render:
+            return layer
+    return me.uv_layers[0]
+
+
+class _Surface:
+    """The face's rest mesh as arrays: positions, edges, and fan triangles of corners."""
+
+    def __init__(self, face, uv_map=None, need_uv=True):
+        _check_face(face)
+        me = face.data
+        self.rest = meshio.read_vectors(me, "position")
+        self.edges = meshio.read_edges(me)
+        corner_vert, starts, sizes = meshio.read_polygons(me)
+        # (T, 3) corner indices: the UVs are per corner
+        self.corner_tris = core_mesh.fan_triangles(np.arange(len(corner_vert)), starts, sizes)
+        self.tris = corner_vert[self.corner_tris]  # (T, 3) vertices
+        if len(self.tris) == 0:
+            raise BakeError(f'"{face.name}" has no faces with 3 or more corners')
+        self.uv = None
+        if need_uv:
+            layer = uv_layer(face, uv_map)
+            self.uv_name = layer.name
+            corner_uv = np.empty(len(corner_vert) * 2, np.float32)
+            layer.uv.foreach_get("vector", corner_uv)
+            self.uv = corner_uv.reshape(-1, 2)[self.corner_tris]  # (T, 3, 2)
+            inside = np.all((self.uv >= 0.0) & (self.uv <= 1.0), axis=(1, 2))
+            if not inside.any():
+                raise BakeError(f'The UV map "{layer.name}" of "{face.name}" has no face inside the '
+                                "0-1 UV square: the maps cover only that square")
+
+
+def _evaluated_skin(face, n):
+    """The deformed skin before wrinkles: ``wrinkle_skin`` of the evaluated mesh when the
+    Wrinkles stage exists, else the evaluated positions (the first ``n`` vertices)."""
+    dg = bpy.context.evaluated_depsgraph_get()
+    ev = face.evaluated_get(dg).data
+    name = stage.SKIN_ATTR if (stage.find_modifier(face) is not None
+                               and ev.attributes.get(stage.SKIN_ATTR) is not None) else "position"
+    if len(ev.vertices) < n:
+        raise BakeError(f'The modifiers of "{face.name}" remove vertices: bake the current pose '
+                        "with them disabled, or use Each Muscle Contracted")
+    return meshio.read_vector_prefix(ev, name, n, np.empty((n, 3), np.float32))
+
+
+def _muscles(face, muscles):
+    muscles = muscle_objects.live_muscles(face) if muscles is None else list(muscles)
+    if not muscles:
+        raise BakeError(f'"{face.name}" has no muscles: add muscles (Add Facial Muscle Set) first')
+    return muscles
+
+
+def bake_height(face, mode, muscles=None, surface=None):
+    """Eq. 4's wrinkle height W (N,) float32 per vertex of ``face``, along the normal, in
+    the face's local units; 0 outside the wrinkling regions.
+
+    ``mode`` "MUSCLES": each muscle alone at full contraction on the rest face, the heights
+    summed where they belong: each vertex keeps only the wrinkles of the muscles of its
+    mask zone (:func:`muscle_zones`; vertices outside every zone keep the muscles without
+    one), so the map agrees with the generated masks and one expression's zone does not
+    show another muscle's wrinkles (the Corrugator's furrows reach into the inner
+    Frontalis' zone, where Surprise would show them).  Wrinkles appear only where the skin
+    is compressed, and on the rest face only the muscle's own Waters pull compresses it,
+    so a muscle set to Wrinkles Only is baked WITH its pull here.  "POSE": the current
+    frame, the deformed skin (shape keys, bones) and the current contractions, exactly as
+    the geometric wrinkles are evaluated.  ``muscles``: the muscle objects, by default all
+    the face's muscles.  The face's Strength scales both.  Raises BakeError.
+    """
+    if mode not in ("MUSCLES", "POSE"):
+        raise BakeError(f"Unknown bake mode {mode!r}")
+    surface = surface or _Surface(face, need_uv=False)
+    muscles = _muscles(face, muscles)
+    core = [muscle_objects.to_core(m, face) for m in muscles]
+    strength = float(face.wrinkles.strength)
+    rest = surface.rest
+    if mode == "MUSCLES":
+        core = [dataclasses.replace(c, wrinkles_only=False) for c in core]
+        plan = system.build_plan(rest, surface.edges, surface.tris, core)
+        total = np.zeros(len(rest), np.float32)
+        contraction = np.zeros(len(core))
+        zone = _vertex_zone(face, surface, muscles)
+        for i, ob in enumerate(muscles):
+            contraction[:] = 0.0
+            contraction[i] = 1.0
+            h = system.heights(plan, rest, contraction, strength)
+            total += np.where(np.isin(zone, _zones_of(ob)), h, 0.0)
+        return total
+    plan = system.build_plan(rest, surface.edges, surface.tris, core)
+    skin = _evaluated_skin(face, len(rest))
+    contraction = np.array([m.wrinkle_muscle.contraction for m in muscles], np.float64)
+    return system.heights(plan, skin, contraction, strength)
+
+
+def _zones_of(ob):
+    """The mask zones a muscle object wrinkles ((-1,): none, like the vertices outside)."""
+    s = ob.wrinkle_muscle
+    pair = wrinkle_maps.ZONE_OF_ROLE.get(s.role)
+    if pair is None:
+        return (-1,)
+    return {"L": (pair[0],), "R": (pair[1],)}.get(s.side, pair)
+
+
+def _vertex_zone(face, surface, muscles):
+    """The mask zone of every vertex (V,) int, -1 outside every zone."""
+    try:
+        zones = muscle_zones(face, surface, muscles)
+    except BakeError:  # no muscle has a zone: nothing to keep apart
+        return np.full(len(surface.rest), -1)
+    return np.where(zones.max(axis=1) > 0, zones.argmax(axis=1), -1)
+
+
+def _padding(resolution):
+    """Edge padding in pixels: 1/128 of the width, at least 2."""
+    return max(2, int(resolution) // 128)
+
+
+def bake_wrinkle_map(face, resolution, mode, uv_map=None, muscles=None, progress=None, smooth=True):
+    """The PD wrinkle map (R, R, 4) float32 of ``face`` (see :func:`bake_height` for
+    ``mode`` and ``muscles``; ``core.uvbake.slopes`` for the formula).  The slopes are in
+    the tangent space of the rest mesh and ``uv_map`` (empty: see :func:`uv_layer`).
+    ``smooth``: slopes from vertex gradients interpolated over the triangles, like smooth
+    shading of the geometric wrinkles; else finite differences per pixel, which show the
+    triangles as facets.  ``progress(fraction, message)`` is called between the steps.
+    Raises BakeError."""
+    R = int(resolution)
+    if not 1 <= R <= 16384:
+        raise BakeError(f"Resolution {R} is out of range (1-16384)")
+    step = progress or (lambda _f, _m: None)
+    step(0.0, "reading the mesh")
+    surface = _Surface(face, uv_map)
+    step(0.05, "wrinkle heights")
+    h = bake_height(face, mode, muscles, surface)
+    step(0.3, f"rasterising {R} x {R}")
+    uv = surface.uv
+    islands = None if smooth else uvbake.uv_islands(uv, surface.tris)
+    pd = uvbake.pd_map(uv, surface.rest[surface.tris], h[surface.tris], R, smooth=smooth, verts=surface.tris,
+                       islands=islands, padding=_padding(R))
+    step(0.9, "storing the image")
+    return pd
+
+
+# --------------------------------------------------------------------------- zone memberships
+def _median_edge(rest, edges, verts_mask=None):
+    if len(edges) == 0:
+        return 0.0
+    if verts_mask is not None:
+        sel = verts_mask[edges].any(axis=1)
+        if sel.any():
+            edges = edges[sel]
+    return float(np.median(core_mesh.edge_lengths(rest.astype(np.float64), edges)))
+
+
+def muscle_zones(face, surface=None, muscles=None):
+    """Raw zone memberships (V, 8) in [0, 1] from the muscles' wrinkling regions.
+
+    A muscle's membership is its wrinkling region S_w (Zhang eqs. 3/14) weighted by its
+    amplitude envelope, normalised to a maximum of 1.  The amplitude ``H(w) At`` changes
+    sign twice per wrinkle cycle, so its envelope is taken as the largest ``|H(w) At|``
+    within one half cycle ``u`` (a max-filter on the mesh, restricted to the region):
+    that keeps the fall-off across the sheet (``At``) and at the ends, without stripes.
+    The zone of a muscle comes from its role and side (``wrinkle_maps.ZONE_OF_ROLE``; a
+    centre muscle fills the left zone on +X and the right one on -X); a zone takes the
+    largest membership of its muscles, and each vertex keeps only its strongest zone.
+    Raises BakeError if no muscle has a role with a zone.
+    """
+    surface = surface or _Surface(face, need_uv=False)
+    muscles = _muscles(face, muscles)
+    rest = surface.rest
+    n = len(rest)
+    zones = np.zeros((n, wrinkle_maps.N_ZONES), np.float32)
+    used = 0
+    for ob in muscles:
+        s = ob.wrinkle_muscle
+        pair = wrinkle_maps.ZONE_OF_ROLE.get(s.role)
+        if pair is None:
+            continue
+        targets = {"L": (pair[0],), "R": (pair[1],)}.get(s.side, tuple(set(pair)))
+        f = muscle_field(rest, muscle_objects.to_core(ob, face))
+        if len(f.region) == 0:
+            continue
+        amp = np.zeros(n)
+        amp[f.region] = np.abs(f.amplitude)
+        in_region = np.zeros(n, bool)
+        in_region[f.region] = True
+        hops = int(np.ceil(f.half_cycle / max(_median_edge(rest, surface.edges, in_region), 1e-12)))
+        env = uvbake.dilate_max(amp, surface.edges, min(hops, 64), inside=in_region)
+        top = env.max()
+        if top <= 0:
+            continue
+        used += 1
+        if len(targets) == 2:  # a centre muscle with a left and a right zone: split at x = 0
+            left = rest[:, 0] >= 0.0  # the character's left is +X
+            zones[:, pair[0]] = np.maximum(zones[:, pair[0]], np.where(left, env / top, 0.0))
+            zones[:, pair[1]] = np.maximum(zones[:, pair[1]], np.where(left, 0.0, env / top))
+            continue
+        for z in targets:
+            zones[:, z] = np.maximum(zones[:, z], env / top)
+    if used == 0:
+        raise BakeError(f'No muscle of "{face.name}" wrinkles a mask zone: the zones come from '
+                        "the Frontalis, Corrugator, Nasalis and Mentalis roles (Add Facial Muscle Set)")
+    # The paper's zones are disjoint parts of the face; muscle regions overlap (the
+    # Corrugator's lies inside the inner Frontalis'), and sharing an overlap between zones
+    # left the brows at a third of their weight on the ICT head.  So each vertex goes to
+    # its strongest zone alone; the soft borders are made afterwards.
+    strongest = zones.argmax(axis=1)
+    return np.where(np.arange(wrinkle_maps.N_ZONES) == strongest[:, None], zones, 0.0).astype(np.float32)
+
+
+def _parse_groups(group_names):
+    names = [g.strip() for g in (group_names or "").split(",")]
+    if not any(names):
+        return list(DEFAULT_GROUPS)
+    names = (names + [""] * wrinkle_maps.N_ZONES)[: wrinkle_maps.N_ZONES]
+    return names
+
+
+def group_zones(face, group_names=None):
+    """Raw zone memberships (V, 8) from 8 vertex groups, and the names not found.
+
+    ``group_names``: comma-separated names in zone order (empty: "Wrinkle Zone 1" to
+    "Wrinkle Zone 8"); an empty entry skips its zone.  Raises BakeError if none exists."""
+    _check_face(face)
+    names = _parse_groups(group_names)
+    index = {}
+    missing = []
+    for z, name in enumerate(names):
+        if not name:
+            continue
+        vg = face.vertex_groups.get(name)
+        if vg is None:
+            missing.append(name)
+        else:
+            index[vg.index] = index.get(vg.index, ()) + (z,)
+    if not index:
+        wanted = ", ".join(f'"{n}"' for n in names if n)
+        raise BakeError(f'"{face.name}" has none of the vertex groups {wanted}')
+    me = face.data
+    n = len(me.vertices)
+    # Vertex group weights have no bulk accessor: one pass over the vertices.
+    pairs = [(v.index, g.group, g.weight) for v in me.vertices for g in v.groups if g.group in index]
+    zones = np.zeros((n, wrinkle_maps.N_ZONES), np.float32)
+    if pairs:
+        arr = np.array(pairs, np.float64)
+        vert, group, weight = arr[:, 0].astype(np.int64), arr[:, 1].astype(np.int64), arr[:, 2]
+        for gi, zs in index.items():
+            sel = group == gi
+            for z in zs:
+                zones[vert[sel], z] = weight[sel]
+    return zones, missing
+
+
+def generate_masks(face, resolution, source, softness, uv_map=None, group_names=None, progress=None):
+    """The two RGBA zone masks (R, R, 4) float32 each (``core.uvbake.mask_images``) and a
+    list of notes for the user.  ``softness``: the width of the zone borders, in the face's
+    local units (see ``core.uvbake.diffusion_time``).  Raises BakeError."""
+    R = int(resolution)
+    if not 1 <= R <= 16384:
+        raise BakeError(f"Resolution {R} is out of range (1-16384)")
+    step = progress or (lambda _f, _m: None)
+    step(0.0, "reading the mesh")
+    surface = _Surface(face, uv_map)
+    notes = []
+    if source == "MUSCLES":
+        zones = muscle_zones(face, surface)
+    elif source == "VERTEX_GROUPS":
+        zones, missing = group_zones(face, group_names)
+        if missing:
+            notes.append("Vertex groups not found (their zones stay empty): " + ", ".join(missing))
+    else:
+        raise BakeError(f"Unknown mask source {source!r}")
+    step(0.4, "soft borders")
+    edge = _median_edge(surface.rest, surface.edges, zones.max(axis=1) > 0)
+    soft = uvbake.soften(zones, surface.edges, uvbake.diffusion_time(float(softness), edge))
+    step(0.7, f"rasterising {R} x {R}")
+    a, b = uvbake.mask_images(surface.uv, soft[surface.tris], R, padding=max(2, R // 64))
+    return a, b, notes
+
+
+# --------------------------------------------------------------------------- operators
+def _face(context):
+    ob = context.active_object
+    if ob is not None and ob.type == "MESH" and ob.wrinkle_muscle.is_muscle and ob.parent is not None:
+        return ob.parent
+    return ob
+
+
+def _poll(cls, context):
+    ob = _face(context)
+    why = None
+    if ob is None:
+        why = "Select the face mesh"
+    elif ob.type != "MESH":
+        why = f'"{ob.name}" is not a mesh: select the face mesh'
+    elif ob.wrinkle_muscle.is_muscle:
+        why = f'"{ob.name}" is a muscle without a face: select the face mesh'
+    elif ob.mode == "EDIT":
+        why = f'"{ob.name}" is in Edit Mode: switch to Object Mode'
+    if why:
+        cls.poll_message_set(why)
+        return False
+    return True
+
+
+class _Progress:
+    """``window_manager.progress_*`` in the UI, a printed line in background mode."""
+
+    def __init__(self, context, title):
+        self.wm = context.window_manager
+        self.title = title
+        self.wm.progress_begin(0, 100)
+
+    def __call__(self, fraction, message):
+        self.wm.progress_update(int(100 * fraction))
+        if bpy.app.background:
+            print(f"Expression Wrinkles: {self.title}: {int(100 * fraction):3d}% {message}", flush=True)
+
+    def end(self):
+        self.wm.progress_end()
+
+
+def _assign_if_empty(face, prop, image):
+    """Offer the new image to the face's wrinkle-map settings if that slot is empty."""
+    if face.library is not None:
+        return
+    maps = getattr(face.wrinkles, "maps", None)
+    if maps is not None and hasattr(maps, prop) and getattr(maps, prop) is None:
+        setattr(maps, prop, image)
+
+
+class WRINKLE_OT_bake_wrinkle_map(bpy.types.Operator):
+    """Bake a partial-derivative wrinkle map from the face's own muscle wrinkles (Zhang 2005
+    heights, Jimenez et al. 2011 §1.2): the wrinkle height field is rasterised in UV space
+    and turned into tangent-space slopes"""
+
+    bl_idname = "wrinkle.bake_wrinkle_map"
+    bl_label = "Bake Wrinkle Map"
+    bl_options = {"REGISTER", "UNDO"}
+
+    resolution: EnumProperty(
+        name="Resolution",
+        description="Width and height of the map in pixels (wrinkles are low frequency: "
+        "the paper used 256 x 256)",
+        items=MAP_RESOLUTIONS,
+        default="1024",
+    )
+    mode: EnumProperty(
+        name="Wrinkles",
+        description="Which wrinkles to bake",
+        items=MODES,
+        default="MUSCLES",
+    )
+    smooth: BoolProperty(
+        name="Smooth",
+        description="Interpolate the slopes between the vertices, as smooth shading does with "
+        "the geometric wrinkles; off: slopes per pixel from the height, which show the "
+        "triangles as facets",
+        default=True,
+    )
+    uv_map: StringProperty(
+        name="UV Map",
+        description="UV map to bake into (empty: the UV map of the face's wrinkle maps, else "
+        "the active render UV map)",
+        default="",
+    )
+    image_name: StringProperty(
+        name="Image",
+        description="Name of the image to create or replace (empty: \"<face> Wrinkle PD\")",
+        default="",
+    )
+
+    poll = classmethod(_poll)
+
+    def execute(self, context):
+        from . import images
+
+        face = _face(context)
+        progress = _Progress(context, "Bake Wrinkle Map")
+        try:
+            pd = bake_wrinkle_map(face, int(self.resolution), self.mode, self.uv_map, progress=progress,
+                                  smooth=self.smooth)
+            name = self.image_name or f"{face.name} Wrinkle PD"
+            # 32-bit float: 8 bits would quantise the slopes to steps of 1/128
+            image = images.store(name, pd, float_buffer=True, non_color=True)
+        except (BakeError, images.ImageError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        finally:
+            progress.end()
+        _assign_if_empty(face, "map_a", image)
+        flat = float(np.abs(pd[..., :2] - 0.5).max()) < 1e-6
+        if flat:
+            why = ("no muscle is contracted and the skin is not compressed" if self.mode == "POSE"
+                   else "the muscles compress no skin (is their Pull 0?)")
+            self.report({"WARNING"}, f'"{image.name}" is flat: {why}')
+        else:
+            self.report({"INFO"}, f'Baked "{image.name}" ({self.resolution} x {self.resolution})')
+        return {"FINISHED"}
+
+
+class WRINKLE_OT_generate_masks(bpy.types.Operator):
+    """Generate the 8 wrinkle zone masks (Jimenez et al. 2011 §1.1) from the muscles'
+    wrinkling regions or from vertex groups, with soft borders, as two RGBA images
+    (mask A: zones 1-4, mask B: zones 5-8)"""
+
+    bl_idname = "wrinkle.generate_masks"
+    bl_label = "Generate Masks"
+    bl_options = {"REGISTER", "UNDO"}
+
+    source: EnumProperty(
+        name="Zones From",
+        description="Where the 8 zones come from",
+        items=SOURCES,
+        default="MUSCLES",
+    )
+    group_names: StringProperty(
+        name="Vertex Groups",
+        description="The 8 vertex groups, comma-separated in zone order (empty: 'Wrinkle Zone 1' "
+        "to 'Wrinkle Zone 8'); leave an entry empty to skip its zone",
+        default="",
+    )
+    softness: FloatProperty(
+        name="Softness",
+        description="Width of the soft border around each zone, measured on the skin",
+        default=0.01, min=0.0, soft_max=0.05, subtype="DISTANCE",
+    )
+    resolution: EnumProperty(
+        name="Resolution",
+        description="Width and height of the masks in pixels (masks are low frequency: the "
+        "paper used 64 x 64)",
+        items=MASK_RESOLUTIONS,
+        default="256",
+    )
+    uv_map: StringProperty(
+        name="UV Map",
+        description="UV map of the masks (empty: the UV map of the face's wrinkle maps, else "
+        "the active render UV map)",
+        default="",
+    )
+    image_name: StringProperty(
+        name="Images",
+        description="Base name of the two images, which get \" A\" and \" B\" appended (empty: "
+        "\"<face> Wrinkle Mask\")",
+        default="",
+    )
+
+    poll = classmethod(_poll)
+
+    def execute(self, context):
+        from . import images
+
+        face = _face(context)
+        progress = _Progress(context, "Generate Masks")
+        try:
+            softness = self.softness / muscle_objects.face_scale(face)  # world -> face-local
+            a, b, notes = generate_masks(face, int(self.resolution), self.source, softness, self.uv_map,
+                                         self.group_names, progress=progress)
+            base = self.image_name or f"{face.name} Wrinkle Mask"
+            image_a = images.store(f"{base} A", a, float_buffer=False, non_color=True)
+            image_b = images.store(f"{base} B", b, float_buffer=False, non_color=True)
+        except (BakeError, images.ImageError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        finally:
+            progress.end()
+        _assign_if_empty(face, "mask_a", image_a)
+        _assign_if_empty(face, "mask_b", image_b)
+        for note in notes:
+            self.report({"WARNING"}, note)
+        self.report({"INFO"}, f'Generated "{image_a.name}" and "{image_b.name}"')
+        return {"FINISHED"}
+
+
+classes = (WRINKLE_OT_bake_wrinkle_map, WRINKLE_OT_generate_masks)
 _register, _unregister = bpy.utils.register_classes_factory(classes)
 
 

@@ -4,7 +4,10 @@ import bpy
 import numpy as np
 
 from tests.blender import scenes
-from wrinkle_addon import draw, operators, props
+from wrinkle_addon import convert_ops, draw, map_ops, mapbake, operators, props, ui
+
+OPERATORS = [c for mod in (operators, map_ops, convert_ops, mapbake) for c in mod.classes
+             if issubclass(c, bpy.types.Operator)]
 
 
 def _own_properties(cls_or_rna):
@@ -16,7 +19,7 @@ def test_every_property_has_a_tooltip():
     for cls in props.classes:
         for prop in _own_properties(cls):
             assert prop.description.strip(), f"{cls.__name__}.{prop.identifier} has no description"
-    for cls in operators.classes:
+    for cls in OPERATORS:
         assert cls.__doc__ and cls.__doc__.strip(), f"{cls.__name__} has no tooltip"
         category, name = cls.bl_idname.split(".")
         rna = getattr(getattr(bpy.ops, category), name).get_rna_type()
@@ -25,7 +28,8 @@ def test_every_property_has_a_tooltip():
 
 
 def test_every_operator_is_undoable():
-    for cls in operators.classes:
+    assert len(OPERATORS) > len(operators.classes)
+    for cls in OPERATORS:
         assert {"REGISTER", "UNDO"} <= set(cls.bl_options), cls.__name__
 
 
@@ -55,3 +59,45 @@ def test_overlay_segments_follow_the_muscles():
     assert np.allclose(moved["aoi"][:, 0].mean() - segs["aoi"][:, 0].mean(), 0.5, atol=1e-4)
     muscle.wrinkle_muscle.show_region = False
     assert not len(draw._segments(bpy.context)["aoi"])
+
+
+class _Layout:
+    """Stands in for a UILayout: every sub-layout is itself, and each drawn property and
+    operator is checked to exist, so a panel cannot show a traceback for a typo."""
+
+    def __init__(self):
+        self.drawn = []
+        self.use_property_split = False
+        self.active = True
+
+    def __getattr__(self, name):
+        return lambda *a, **k: self
+
+    def prop(self, data, name, **kw):
+        assert hasattr(data, name), f"{type(data).__name__} has no property {name!r}"
+        self.drawn.append(name)
+
+    def prop_search(self, data, name, search_data, search_name, **kw):
+        assert hasattr(data, name) and hasattr(search_data, search_name)
+        self.drawn.append(name)
+
+    def operator(self, idname, **kw):
+        category, name = idname.split(".")
+        getattr(getattr(bpy.ops, category), name).get_rna_type()  # raises if not registered
+        self.drawn.append(idname)
+        return type("Props", (), {})()
+
+    def operator_menu_enum(self, idname, prop, **kw):
+        return self.operator(idname)
+
+
+def test_wrinkle_maps_panel_draws_every_control():
+    face = scenes.make_face()
+    face.wrinkles.maps.expressions.add()
+    for source in ("SHAPE_KEY", "MUSCLE", "PROPERTY", "MANUAL"):
+        face.wrinkles.maps.expressions[0].source = source
+        layout = _Layout()
+        panel = type("P", (), {"layout": layout})()
+        ui.VIEW3D_PT_wrinkle_maps.draw(panel, bpy.context)
+        assert {"wrinkle.setup_wrinkle_maps", "wrinkle.bake_wrinkle_map", "wrinkle.generate_masks",
+                "weights", "zone_power", "mask_b"} <= set(layout.drawn)
