@@ -96,6 +96,8 @@ class _MapOperator:
     suffix = ""
     verb = ""
 
+    source_props = ("source",)
+
     def sources(self):
         """[(label, image name)] in the order ``compute`` takes them."""
         raise NotImplementedError
@@ -114,6 +116,17 @@ class _MapOperator:
         if n < 3:
             raise images.ImageError(f"{label} '{name}' has {n} channel{'s' * (n > 1)}; it needs RGB")
         return image
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        for prop in self.source_props:
+            layout.prop_search(self, prop, bpy.data, "images")
+        for prop in ("output", "filepath", "file_format"):
+            layout.prop(self, prop)
 
     def _check_path(self):
         if self.filepath.startswith("//") and not bpy.data.filepath:
@@ -204,6 +217,7 @@ class WRINKLE_OT_make_difference_map(_MapOperator, bpy.types.Operator):
     bl_idname = "wrinkle.make_difference_map"
     bl_label = "Make Difference Map"
 
+    source_props = ("base", "wrinkle")
     base: StringProperty(
         name="Base Normal Map",
         description="The face's normal map without expression wrinkles",

@@ -459,6 +459,9 @@ class WRINKLE_OT_bake_wrinkle_map(bpy.types.Operator):
 
     poll = classmethod(_poll)
 
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
     def execute(self, context):
         from . import images
 
@@ -533,6 +536,9 @@ class WRINKLE_OT_generate_masks(bpy.types.Operator):
     )
 
     poll = classmethod(_poll)
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
         from . import images

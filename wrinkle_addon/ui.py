@@ -169,6 +169,12 @@ class VIEW3D_PT_wrinkle_maps(bpy.types.Panel):
             col.prop_search(m, "uv_map", face.data, "uv_layers")
         for prop in ("base_image", "map_a", "map_b", "mask_a", "mask_b"):
             col.prop(m, prop)
+        col = layout.column(align=True)
+        col.label(text="Convert maps you already have")
+        row = col.row(align=True)
+        row.operator("wrinkle.convert_to_derivative", text="To Derivative")
+        row.operator("wrinkle.convert_to_normal", text="To Normal")
+        row.operator("wrinkle.make_difference_map", text="Difference")
         row = layout.row(align=True)
         row.operator("wrinkle.setup_wrinkle_maps", icon="NODETREE")
         if m.material is not None:

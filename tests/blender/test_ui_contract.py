@@ -100,4 +100,15 @@ def test_wrinkle_maps_panel_draws_every_control():
         panel = type("P", (), {"layout": layout})()
         ui.VIEW3D_PT_wrinkle_maps.draw(panel, bpy.context)
         assert {"wrinkle.setup_wrinkle_maps", "wrinkle.bake_wrinkle_map", "wrinkle.generate_masks",
+                "wrinkle.convert_to_derivative", "wrinkle.make_difference_map",
                 "weights", "zone_power", "mask_b"} <= set(layout.drawn)
+
+
+def test_converter_dialogs_draw_their_properties():
+    for cls in (convert_ops.WRINKLE_OT_convert_to_derivative, convert_ops.WRINKLE_OT_convert_to_normal,
+                convert_ops.WRINKLE_OT_make_difference_map):
+        layout = _Layout()
+        fields = {name: "" for c in cls.__mro__ for name in getattr(c, "__annotations__", {})}
+        op = type("Op", (), {**fields, "layout": layout, "source_props": cls.source_props})()
+        cls.draw(op, bpy.context)
+        assert set(cls.source_props) | {"output", "filepath", "file_format"} <= set(layout.drawn)
