@@ -11,7 +11,6 @@ Thin glue: the maths is in ``core/uvbake.py``.  Everything is computed and check
 before any image is created, so bad input creates nothing.
 """
 
-import dataclasses
 
 import bpy
 import numpy as np
@@ -143,17 +142,20 @@ def bake_height(face, mode, muscles=None, surface=None):
     """Eq. 4's wrinkle height W (N,) float32 per vertex of ``face``, along the normal, in
     the face's local units; 0 outside the wrinkling regions.
 
-    ``mode`` "MUSCLES": each muscle alone at full contraction on the rest face, the heights
-    summed where they belong: each vertex keeps only the wrinkles of the muscles of its
-    mask zone (:func:`muscle_zones`; vertices outside every zone keep the muscles without
-    one), so the map agrees with the generated masks and one expression's zone does not
-    show another muscle's wrinkles (the Corrugator's furrows reach into the inner
-    Frontalis' zone, where Surprise would show them).  Wrinkles appear only where the skin
-    is compressed, and on the rest face only the muscle's own Waters pull compresses it,
-    so a muscle set to Wrinkles Only is baked WITH its pull here.  "POSE": the current
-    frame, the deformed skin (shape keys, bones) and the current contractions, exactly as
-    the geometric wrinkles are evaluated.  ``muscles``: the muscle objects, by default all
-    the face's muscles.  The face's Strength scales both.  Raises BakeError.
+    ``mode`` "MUSCLES": each muscle's fully formed wrinkle, ``H(w) At`` with ``A(eps) = 1``
+    (``core.system.formed_heights``): a wrinkle map holds the expression's wrinkles at full
+    strength, and its animated zone weight plays the part of ``A(eps)``.  (Baking them from
+    each muscle's own pull at full contraction gave ``A`` of only 0.15-0.3: the Frontalis
+    pulls 8 %, while the ICT head's shape keys compress the forehead by up to 40 %.)  The
+    heights are summed where they belong: each vertex keeps only the wrinkles of the
+    muscles of its mask zone (:func:`muscle_zones`; vertices outside every zone keep the
+    muscles without one), so the map agrees with the generated masks and one expression's
+    zone does not show another muscle's wrinkles (the Corrugator's furrows reach into the
+    inner Frontalis' zone, where Surprise would show them).  "POSE": the current frame,
+    the deformed skin (shape keys, bones) and the current contractions, exactly as the
+    geometric wrinkles are evaluated (``A(eps)`` included).  ``muscles``: the muscle
+    objects, by default all the face's muscles.  The face's Strength scales both.  Raises
+    BakeError.
     """
     if mode not in ("MUSCLES", "POSE"):
         raise BakeError(f"Unknown bake mode {mode!r}")
@@ -163,15 +165,11 @@ def bake_height(face, mode, muscles=None, surface=None):
     strength = float(face.wrinkles.strength)
     rest = surface.rest
     if mode == "MUSCLES":
-        core = [dataclasses.replace(c, wrinkles_only=False) for c in core]
         plan = system.build_plan(rest, surface.edges, surface.tris, core)
         total = np.zeros(len(rest), np.float32)
-        contraction = np.zeros(len(core))
         zone = _vertex_zone(face, surface, muscles)
         for i, ob in enumerate(muscles):
-            contraction[:] = 0.0
-            contraction[i] = 1.0
-            h = system.heights(plan, rest, contraction, strength)
+            h = system.formed_heights(plan, i, strength)
             total += np.where(np.isin(zone, _zones_of(ob)), h, 0.0)
         return total
     plan = system.build_plan(rest, surface.edges, surface.tris, core)

@@ -96,8 +96,12 @@ def test_pose_mode_follows_contraction_and_shape_keys():
     scene.frame_set(2)
     pose = mapbake.bake_wrinkle_map(face, 128, "POSE")
     full = mapbake.bake_wrinkle_map(face, 128, "MUSCLES")
-    # one muscle, skin at rest: the current pose at full contraction is the muscle's map
-    np.testing.assert_allclose(pose, full, atol=1e-6)
+    # one muscle: the pose holds the same wrinkle, scaled by A(eps) <= 1 where the
+    # muscle's pull compresses the skin; the muscle map holds it fully formed (A = 1)
+    p, f = pose[..., :2] - 0.5, full[..., :2] - 0.5
+    lit = np.abs(f) > 0.02
+    assert lit.any() and np.corrcoef(p[lit], f[lit])[0, 1] > 0.6  # measured 0.75: A(eps) varies
+    assert 0.02 < np.abs(p).max() < np.abs(f).max()
     # a shape key that compresses the skin wrinkles a Wrinkles Only muscle at contraction 0
     muscle.wrinkle_muscle.contraction = 0.0
     muscle.wrinkle_muscle.wrinkles_only = True
@@ -105,7 +109,7 @@ def test_pose_mode_follows_contraction_and_shape_keys():
     scene.frame_set(3)
     keyed = mapbake.bake_wrinkle_map(face, 128, "POSE")
     assert np.abs(keyed[..., :2] - 0.5).max() > 0.01
-    # while Each Muscle Contracted ignores the pose and bakes Wrinkles Only muscles with their pull
+    # while Each Muscle Contracted ignores the pose and the Wrinkles Only switch
     np.testing.assert_allclose(mapbake.bake_wrinkle_map(face, 128, "MUSCLES"), full, atol=1e-6)
 
 

@@ -235,3 +235,19 @@ def test_refine_edges_selects_long_edges_in_region_only():
     assert all(edges[i, 0] in region or edges[i, 1] in region for i in split)
     fine_rest, fine_edges, *_ = grid(400, 260)
     assert len(system.refine_edges(fine_rest, fine_edges, [m], factor=4)) == 0
+
+
+def test_formed_heights_are_the_wrinkle_at_full_amplitude():
+    """formed_heights = H(w) At (A = 1): the per-frame heights of the same muscle are that
+    field scaled by A(eps) in [0, 1] at each vertex, and grow toward it with compression."""
+    rest, edges, tris, _ = grid(120, 80)
+    plan = _system(rest, edges, tris, [sheet(wrinkles_only=True)])
+    formed = system.formed_heights(plan, 0)
+    assert np.abs(formed).max() > 1e-4 and system.formed_heights(plan, 1).max() == 0.0
+    for squash, lo in ((0.9, 0.0), (0.6, 0.3)):
+        h = system.heights(plan, squash_vertical(rest, squash).astype(np.float32), [0.0])
+        lit = np.abs(formed) > 1e-5
+        ratio = h[lit] / formed[lit]
+        assert ratio.min() >= -1e-6 and ratio.max() <= 1.0 + 1e-6
+        assert np.median(ratio) > lo
+    assert np.all(h[formed == 0.0] == 0.0)  # nothing outside the region

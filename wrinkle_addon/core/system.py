@@ -249,6 +249,19 @@ def heights(plan, skin, contraction, strength=1.0):
     return out
 
 
+def formed_heights(plan, muscle, strength=1.0):
+    """The fully formed wrinkle of one muscle, ``H(w) At`` of eq. 4 with ``A(eps) = 1``,
+    per vertex (N,) float32: its wrinkles as they are once the skin is compressed enough,
+    whatever compresses it.  A wrinkle map holds this; the map's animated zone weight then
+    plays the part of ``A(eps)`` (Jimenez et al. 2011, §1.2)."""
+    out = np.zeros(plan.n_verts, dtype=_F)
+    rows = plan.row_muscle == muscle
+    if rows.any():
+        local = np.bincount(plan.row_vert[rows], weights=plan.row_amp[rows], minlength=len(plan.verts))
+        out[plan.verts] = local.astype(_F) * _F(np.nan_to_num(strength))
+    return out
+
+
 def refine_edges(rest, edges, muscles, factor=4.0):
     """Edges to split so every half cycle ``u`` spans at least ``factor`` edges.
 
