@@ -26,11 +26,7 @@ PRESETS = [
 ]
 
 
-def _face(context):
-    ob = context.active_object
-    if ob is not None and ob.wrinkle_muscle.is_muscle and ob.parent is not None:
-        return ob.parent
-    return ob
+_face = muscle_objects.active_face
 
 
 def _mesh_poll(cls, context):

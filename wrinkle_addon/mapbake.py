@@ -364,11 +364,7 @@ def generate_masks(face, resolution, source, softness, uv_map=None, group_names=
 
 
 # --------------------------------------------------------------------------- operators
-def _face(context):
-    ob = context.active_object
-    if ob is not None and ob.type == "MESH" and ob.wrinkle_muscle.is_muscle and ob.parent is not None:
-        return ob.parent
-    return ob
+_face = muscle_objects.active_face
 
 
 def _poll(cls, context):

@@ -17,6 +17,15 @@ from .core.muscles import LINEAR, SHEET, Muscle
 COLLECTION_NAME = "Wrinkle Muscles"
 
 
+def active_face(context):
+    """The face an operator acts on: the active object, or the face a selected muscle
+    belongs to (its parent)."""
+    ob = context.active_object
+    if ob is not None and ob.type == "MESH" and ob.wrinkle_muscle.is_muscle and ob.parent is not None:
+        return ob.parent
+    return ob
+
+
 def world_points(ob):
     me = ob.data
     co = np.empty(len(me.vertices) * 3, dtype=np.float64)

@@ -36,11 +36,7 @@ EXPRESSIONS = [
 LANDMARK_PREFIX = "WL "
 
 
-def _face(context):
-    ob = context.active_object
-    if ob is not None and ob.type == "MESH" and ob.wrinkle_muscle.is_muscle and ob.parent is not None:
-        return ob.parent
-    return ob
+_face = muscle_objects.active_face
 
 
 def _face_poll(cls, context):

@@ -52,14 +52,8 @@ def image_node(nodes, img):
     return n
 
 
-def show_normal_material(plane, group_node_setup):
-    """A material that emits 0.5 + 0.5 N (world normal) from ``group_node_setup(nt)``,
-    which must return the output socket of a normal."""
-    mat = bpy.data.materials.new("ShowNormal")
-    mat.use_nodes = True
-    nt = mat.node_tree
-    nt.nodes.clear()
-    normal = group_node_setup(nt)
+def emit_normal(nt, normal):
+    """Nodes that emit 0.5 + 0.5 ``normal``; returns their Material Output."""
     enc = nt.nodes.new("ShaderNodeVectorMath")
     enc.operation = "MULTIPLY_ADD"
     nt.links.new(normal, enc.inputs[0])
@@ -69,6 +63,17 @@ def show_normal_material(plane, group_node_setup):
     nt.links.new(enc.outputs["Vector"], emit.inputs["Color"])
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     nt.links.new(emit.outputs[0], out.inputs["Surface"])
+    return out
+
+
+def show_normal_material(plane, group_node_setup):
+    """A material that emits 0.5 + 0.5 N (world normal) from ``group_node_setup(nt)``,
+    which must return the output socket of a normal."""
+    mat = bpy.data.materials.new("ShowNormal")
+    mat.use_nodes = True
+    nt = mat.node_tree
+    nt.nodes.clear()
+    emit_normal(nt, group_node_setup(nt))
     plane.data.materials.append(mat)
     return mat
 
@@ -133,16 +138,7 @@ def show_blend_output(mat):
     for n in nt.nodes:
         if n.type == "OUTPUT_MATERIAL":
             n.is_active_output = False
-    enc = nt.nodes.new("ShaderNodeVectorMath")
-    enc.operation = "MULTIPLY_ADD"
-    nt.links.new(nt.nodes["Wrinkle Map Blend"].outputs["Normal"], enc.inputs[0])
-    enc.inputs[1].default_value = (0.5, 0.5, 0.5)
-    enc.inputs[2].default_value = (0.5, 0.5, 0.5)
-    emit = nt.nodes.new("ShaderNodeEmission")
-    nt.links.new(enc.outputs["Vector"], emit.inputs["Color"])
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    nt.links.new(emit.outputs[0], out.inputs["Surface"])
-    out.is_active_output = True
+    emit_normal(nt, nt.nodes["Wrinkle Map Blend"].outputs["Normal"]).is_active_output = True
     for image_node_name in ("Wrinkle Base", "Wrinkle Map 1", "Wrinkle Map 2", "Wrinkle Mask A",
                             "Wrinkle Mask B"):
         n = nt.nodes.get(image_node_name)
