@@ -91,7 +91,7 @@ def uv_layer(face, uv_map=None):
     return me.uv_layers[0]
 
 
-class _Surface:
+class Surface:
     """The face's rest mesh as arrays: positions, edges, and fan triangles of corners."""
 
     def __init__(self, face, uv_map=None, need_uv=True):
@@ -118,10 +118,11 @@ class _Surface:
                                 "0-1 UV square: the maps cover only that square")
 
 
-def _evaluated_skin(face, n):
+def evaluated_skin(face, n, depsgraph=None):
     """The deformed skin before wrinkles: ``wrinkle_skin`` of the evaluated mesh when the
-    Wrinkles stage exists, else the evaluated positions (the first ``n`` vertices)."""
-    dg = bpy.context.evaluated_depsgraph_get()
+    Wrinkles stage exists, else the evaluated positions (the first ``n`` vertices), from
+    ``depsgraph`` (default: the context's)."""
+    dg = depsgraph or bpy.context.evaluated_depsgraph_get()
     ev = face.evaluated_get(dg).data
     name = stage.SKIN_ATTR if (stage.find_modifier(face) is not None
                                and ev.attributes.get(stage.SKIN_ATTR) is not None) else "position"
@@ -159,7 +160,7 @@ def bake_height(face, mode, muscles=None, surface=None):
     """
     if mode not in ("MUSCLES", "POSE"):
         raise BakeError(f"Unknown bake mode {mode!r}")
-    surface = surface or _Surface(face, need_uv=False)
+    surface = surface or Surface(face, need_uv=False)
     muscles = _muscles(face, muscles)
     core = [muscle_objects.to_core(m, face) for m in muscles]
     strength = float(face.wrinkles.strength)
@@ -173,7 +174,7 @@ def bake_height(face, mode, muscles=None, surface=None):
             total += np.where(np.isin(zone, _zones_of(ob)), h, 0.0)
         return total
     plan = system.build_plan(rest, surface.edges, surface.tris, core)
-    skin = _evaluated_skin(face, len(rest))
+    skin = evaluated_skin(face, len(rest))
     contraction = np.array([m.wrinkle_muscle.contraction for m in muscles], np.float64)
     return system.heights(plan, skin, contraction, strength)
 
@@ -214,7 +215,7 @@ def bake_wrinkle_map(face, resolution, mode, uv_map=None, muscles=None, progress
         raise BakeError(f"Resolution {R} is out of range (1-16384)")
     step = progress or (lambda _f, _m: None)
     step(0.0, "reading the mesh")
-    surface = _Surface(face, uv_map)
+    surface = Surface(face, uv_map)
     step(0.05, "wrinkle heights")
     h = bake_height(face, mode, muscles, surface)
     step(0.3, f"rasterising {R} x {R}")
@@ -250,7 +251,7 @@ def muscle_zones(face, surface=None, muscles=None):
     largest membership of its muscles, and each vertex keeps only its strongest zone.
     Raises BakeError if no muscle has a role with a zone.
     """
-    surface = surface or _Surface(face, need_uv=False)
+    surface = surface or Surface(face, need_uv=False)
     muscles = _muscles(face, muscles)
     rest = surface.rest
     n = len(rest)
@@ -345,7 +346,7 @@ def generate_masks(face, resolution, source, softness, uv_map=None, group_names=
         raise BakeError(f"Resolution {R} is out of range (1-16384)")
     step = progress or (lambda _f, _m: None)
     step(0.0, "reading the mesh")
-    surface = _Surface(face, uv_map)
+    surface = Surface(face, uv_map)
     notes = []
     if source == "MUSCLES":
         zones = muscle_zones(face, surface)

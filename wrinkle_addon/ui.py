@@ -49,11 +49,7 @@ class VIEW3D_PT_wrinkle_face(bpy.types.Panel):
             layout.operator("wrinkle.disable", icon="CANCEL")
         else:
             layout.operator("wrinkle.enable", icon="CHECKMARK")
-        msg = pipeline.status(face)
-        if msg:
-            box = layout.box()
-            for i, line in enumerate(_wrap(msg, 48)):
-                box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+        _status_box(layout, pipeline.status(face))
         layout.prop(s, "strength")
         layout.label(text="Muscles")
         row = layout.row()
@@ -153,11 +149,7 @@ class VIEW3D_PT_wrinkle_maps(bpy.types.Panel):
         layout = self.layout
         face = _face(context)
         m = face.wrinkles.maps
-        msg = wrinklemaps.status(face)
-        if msg:
-            box = layout.box()
-            for i, line in enumerate(_wrap(msg, 48)):
-                box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+        _status_box(layout, wrinklemaps.status(face))
         col = layout.column(align=True)
         col.label(text="Generate from the muscles")
         row = col.row(align=True)
@@ -223,6 +215,14 @@ class VIEW3D_PT_wrinkle_maps(bpy.types.Panel):
             grid.label(text=name)
             grid.prop(m, "zone_strength", index=z, text="Strength")
             grid.prop(m, "zone_power", index=z, text="Power")
+
+
+def _status_box(layout, msg):
+    """A problem message in a box: an error icon on the first line, wrapped to the panel."""
+    if msg:
+        box = layout.box()
+        for i, line in enumerate(_wrap(msg, 48)):
+            box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
 
 
 def _wrap(text, width):

@@ -13,16 +13,21 @@ contraction or any property.
 import bpy
 import numpy as np
 
-from . import mapgroup, meshio
+from . import images, mapbake, mapgroup, meshio
+from .core import mesh as core_mesh
 from .core import wrinkle_maps as wm
 from .core.wrinkle_maps import N_ZONES
 
 BLEND_NODE = "Wrinkle Map Blend"
 WEIGHTS_NODE = "Wrinkle Weights"
 UV_NODE = "Wrinkle UV"
-IMAGE_NODES = (("base_image", "Wrinkle Base"), ("map_a", "Wrinkle Map 1"), ("map_b", "Wrinkle Map 2"),
-               ("mask_a", "Wrinkle Mask A"), ("mask_b", "Wrinkle Mask B"))
-_OURS = {BLEND_NODE, WEIGHTS_NODE, UV_NODE} | {n for _p, n in IMAGE_NODES}
+# (settings property, image node, blend-group input it feeds)
+IMAGE_NODES = (("base_image", "Wrinkle Base", "Base Normal"),
+               ("map_a", "Wrinkle Map 1", mapgroup.map_socket(0)),
+               ("map_b", "Wrinkle Map 2", mapgroup.map_socket(1)),
+               ("mask_a", "Wrinkle Mask A", "Mask A"),
+               ("mask_b", "Wrinkle Mask B", "Mask B"))
+_OURS = {BLEND_NODE, WEIGHTS_NODE, UV_NODE} | {n for _p, n, _s in IMAGE_NODES}
 _problems = {}  # face session_uid -> {expression index: message}
 _tension = {}  # face session_uid -> (key, rest, edges, vertex masks (V, 8))
 _status = {}  # face session_uid -> message
@@ -68,21 +73,15 @@ def _principled(nt):
     return bsdfs[0] if bsdfs else None
 
 
-def file_channels(img):
-    """Channels of the image's data.  ``Image.channels`` is 4 for every image Blender
-    holds; ``depth`` keeps the file's bits per pixel (measured on 4.5 and 5.2: 8-bit BW,
-    RGB, RGBA give 8, 24, 32; 16-bit PNG and EXR load as float with 32 bits a channel)."""
-    return img.depth // (32 if img.is_float else 8)
-
-
 def _image_problem(label, img, square=True, alpha=False):
     if img is None:
         return None
+    try:
+        images.check_loaded(img)
+    except images.ImageError as exc:
+        return f"{label}: {exc}"
     w, h = img.size
-    if w == 0 or h == 0 or not img.has_data and len(img.pixels) == 0:
-        where = f" ({bpy.path.abspath(img.filepath)})" if img.filepath else ""
-        return f'{label} "{img.name}" has no pixels: its file is missing or unreadable{where}'
-    channels = file_channels(img)
+    channels = images.channel_count(img)
     if channels < 3:
         return f'{label} "{img.name}" has {channels} channel(s); it needs RGB'
     if alpha and channels < 4:
@@ -186,7 +185,7 @@ def setup(face, material=None):
     weights.node_tree = maps.weights_group
     uv = _node(nt, UV_NODE, "ShaderNodeUVMap", (x - 1100, y - 400))
     uv.uv_map = maps.uv_map
-    for i, (prop, name) in enumerate(IMAGE_NODES):
+    for i, (prop, name, _socket) in enumerate(IMAGE_NODES):
         img = getattr(maps, prop)
         node = nt.nodes.get(name)
         if img is None:
@@ -211,9 +210,7 @@ def _wire(face):
     blend, weights = nt.nodes.get(BLEND_NODE), nt.nodes.get(WEIGHTS_NODE)
     if blend is None or weights is None:
         return
-    for src, dst in (("Wrinkle Base", "Base Normal"), ("Wrinkle Map 1", mapgroup.map_socket(0)),
-                     ("Wrinkle Map 2", mapgroup.map_socket(1)), ("Wrinkle Mask A", "Mask A"),
-                     ("Wrinkle Mask B", "Mask B")):
+    for _prop, src, dst in IMAGE_NODES:
         node = nt.nodes.get(src)
         if node is not None:
             nt.links.new(node.outputs["Color"], blend.inputs[dst])
@@ -361,34 +358,25 @@ def wants_tension(face):
     return maps.weight_mode == "TENSION" and maps.weights_group is not None and maps.material is not None
 
 
-def _image_pixels(img):
-    px = np.empty(img.size[0] * img.size[1] * 4, np.float32)
-    img.pixels.foreach_get(px)
-    return px.reshape(img.size[1], img.size[0], 4)
-
-
 def _tension_statics(face, maps):
+    """(key, rest edge lengths, edges, zone masks at the vertices (V, 8)), cached until
+    the topology, the UV map or the masks change."""
     me = face.data
-    uv_name = maps.uv_map or next((uv.name for uv in me.uv_layers if uv.active_render), "")
     masks = (maps.mask_a, maps.mask_b)
-    key = (meshio.topology_key(me), uv_name) + tuple(
+    key = (meshio.topology_key(me), mapbake.uv_layer(face).name) + tuple(
         (m.name, tuple(m.size)) if m is not None else None for m in masks)
     cached = _tension.get(face.session_uid)
     if cached is not None and cached[0] == key:
         return cached
-    if uv_name not in me.uv_layers:
-        raise mapgroup.MapError(f'"{face.name}" has no UV map "{uv_name}"')
-    corner, _starts, _sizes = meshio.read_polygons(me)
-    uv = np.empty(len(me.loops) * 2, np.float32)
-    me.uv_layers[uv_name].uv.foreach_get("vector", uv)
-    verts, first = np.unique(corner, return_index=True)
-    vertex_uv = np.zeros((len(me.vertices), 2), np.float32)
-    vertex_uv[verts] = uv.reshape(-1, 2)[first]
-    vm = np.zeros((len(me.vertices), N_ZONES), np.float32)
+    surface = mapbake.Surface(face)
+    vertex_uv = np.zeros((len(surface.rest), 2), np.float32)
+    vertex_uv[surface.tris.ravel()] = surface.uv.reshape(-1, 2)  # a vertex takes one of its corners' UVs
+    vm = np.zeros((len(surface.rest), N_ZONES), np.float32)
     for i, img in enumerate(masks):
         if img is not None and img.size[0] and img.size[1]:
-            vm[:, 4 * i: 4 * i + 4] = wm.sample_nearest(_image_pixels(img), vertex_uv)
-    cached = (key, meshio.read_vectors(me, "position"), meshio.read_edges(me), vm)
+            vm[:, 4 * i: 4 * i + 4] = wm.sample_nearest(images.read(img), vertex_uv)
+    rest_length = core_mesh.edge_lengths(surface.rest, surface.edges)
+    cached = (key, rest_length, surface.edges, vm)
     _tension[face.session_uid] = cached
     return cached
 
@@ -398,14 +386,9 @@ def update_tension(face, depsgraph):
     frame: the skin's mean compression in each zone, from the deformed skin before any
     wrinkle (``wrinkle_skin`` when geometric wrinkles are on)."""
     maps = face.wrinkles.maps
-    _key, rest, edges, vm = _tension_statics(face, maps)
-    ev = face.evaluated_get(depsgraph).data
-    name = "wrinkle_skin" if ev.attributes.get("wrinkle_skin") is not None else "position"
-    if len(ev.vertices) < len(rest):
-        raise mapgroup.MapError("A modifier removes vertices before the wrinkle maps can measure "
-                                "the tension")
-    skin = meshio.read_vector_prefix(ev, name, len(rest), np.empty_like(rest))
-    values = wm.zone_tension(vm, wm.vertex_compression(rest, skin, edges), maps.tension_gain)
+    _key, rest_length, edges, vm = _tension_statics(face, maps)
+    skin = mapbake.evaluated_skin(face, len(vm), depsgraph)
+    values = wm.zone_tension(vm, wm.vertex_compression(skin, edges, rest_length), maps.tension_gain)
     if _value_path(mapgroup.tension_node(0)) not in baked_paths(maps.weights_group):
         mapgroup.set_tension(maps.weights_group, values)
     return values

@@ -3,7 +3,7 @@
 import bpy
 import numpy as np
 
-from wrinkle_addon import mapgroup
+from wrinkle_addon import mapgroup, wrinklemaps
 
 
 def data_image(name, pixels, closest=True):
@@ -139,8 +139,7 @@ def show_blend_output(mat):
         if n.type == "OUTPUT_MATERIAL":
             n.is_active_output = False
     emit_normal(nt, nt.nodes["Wrinkle Map Blend"].outputs["Normal"]).is_active_output = True
-    for image_node_name in ("Wrinkle Base", "Wrinkle Map 1", "Wrinkle Map 2", "Wrinkle Mask A",
-                            "Wrinkle Mask B"):
+    for _prop, image_node_name, _socket in wrinklemaps.IMAGE_NODES:
         n = nt.nodes.get(image_node_name)
         if n is not None:
             n.interpolation = "Closest"

@@ -188,18 +188,17 @@ def zone_tension(vertex_masks, compression, gain=1.0):
     return np.clip(gain * np.where(total > 0, mean, 0.0), 0.0, 1.0).astype(np.float32)
 
 
-def vertex_compression(rest, skin, edges):
+def vertex_compression(skin, edges, rest_length):
     """Per-vertex compression (V,): the mean over a vertex's edges of the shrinkage
-    ``max(tau, 0)``, tau = (L - l) / L (Zhang eq. 9); 0 on stretched or rest skin."""
+    ``max(tau, 0)``, tau = (L - l) / L (Zhang eq. 9); 0 on stretched or rest skin.
+    ``rest_length`` (E,) the edges' rest lengths (static: the caller keeps them)."""
+    from .mesh import edge_lengths
     from .zhang import edge_shrinkage
 
-    rest = np.asarray(rest, np.float32).reshape(-1, 3)
     skin = np.asarray(skin, np.float32).reshape(-1, 3)
     e = np.asarray(edges, np.int64).reshape(-1, 2)
-    rest_len = np.linalg.norm(rest[e[:, 1]] - rest[e[:, 0]], axis=1)
-    length = np.linalg.norm(skin[e[:, 1]] - skin[e[:, 0]], axis=1)
-    tau = np.maximum(np.nan_to_num(edge_shrinkage(rest_len, length)), 0.0)
-    n = len(rest)
+    tau = np.maximum(np.nan_to_num(edge_shrinkage(rest_length, edge_lengths(skin, e))), 0.0)
+    n = len(skin)
     total = np.bincount(e.ravel(), weights=np.repeat(tau, 2), minlength=n)
     count = np.bincount(e.ravel(), minlength=n)
     return (total / np.maximum(count, 1)).astype(np.float32)
