@@ -8,6 +8,8 @@ maps, each with its own 8 zone weights (Oat's stretch and compress maps are K = 
     PD:   n = normalize(b_x/b_z + sum_k s_k w'_kx,  b_y/b_z + sum_k s_k w'_ky,  1)
     diff: n = normalize(b + sum_k s_k 2 decode(d_k))
 
+(evaluated in an equivalent form with fewer nodes: see ``_build_blend``)
+
 with ``b = decode(Base Normal)`` a standard tangent-space normal map, converted to a
 partial derivative in the shader so artists keep their base map; ``Difference Maps`` (0
 or 1) picks §1.2.1's difference maps instead of PD maps.  The result goes through a
@@ -31,7 +33,7 @@ from .core.wrinkle_maps import N_ZONES, ZONES
 
 BLEND_GROUP = "Wrinkle Map Blend"
 WEIGHTS_PREFIX = "Wrinkle Weights"
-VERSION = 1
+VERSION = 2  # 2: the cheaper graph (no division, no normalisation)
 FLAT = (0.5, 0.5, 0.5, 1.0)  # decodes to 0 in both PD and difference maps
 
 
@@ -170,50 +172,57 @@ def _by_id(sockets, identifier):
 
 
 def _build_blend(ng):
-    """(Re)build the inside of the blend group for the maps its interface holds."""
+    """(Re)build the inside of the blend group for the maps its interface holds.
+
+    The graph renders Listing 1.1 exactly but with as few per-sample nodes as the algebra
+    allows (Cycles pays for every node at every shading point).  With ``c`` the base map's
+    colour, ``b = 2c - 1`` and ``b_z > 0``, the PD blend ``normalize(b_xy / b_z + D, 1)``
+    equals ``normalize(b + b_z (D, 0))``, and the Normal Map node normalises its decoded
+    input anyway, so the group hands it ``c + (c_z - 1/2) (D, 0)`` with
+    ``D = sum_k s_k w'_k``: no division, no normalisation.  Difference maps give
+    ``c + sum_k s_k (2 d_k - 1)`` the same way.  The per-zone clamps and the strength fold
+    into constants before rendering (their inputs are constants), as does the unused mode.
+    """
     ng.nodes.clear()
     k_maps = map_count(ng)
     b = _Builder(ng)
     gin = b.node("NodeGroupInput")
     gin.location = (-1400, 0)
     gout = b.node("NodeGroupOutput")
-    gout.location = (1400, 0)
+    gout.location = (1000, 0)
     o = gin.outputs
+    diff = o["Difference Maps"]
 
-    # per map: s_k = Strength * (dot(MaskA, clamp(w1..3)) + A.a clamp(w4) + ... )
-    b.x = -1000
-    scales = []
+    # decoding of a wrinkle map: PD (2r - 1, 2g - 1, 0); difference (2 d - 1)
+    b.x, b.y = -1100, 400
+    dec_mul = b.combine(2.0, 2.0, b.math("MULTIPLY", diff, 2.0))
+    dec_add = b.combine(-1.0, -1.0, b.math("MULTIPLY", diff, -1.0))
+    # scale of the summed offsets: PD (c_z - 1/2); difference 1
+    b.x, b.y = -700, 400
+    half_bz = b.math("SUBTRACT", b.separate(o["Base Normal"])[2], 0.5)
+    mix = b.node("ShaderNodeMix", data_type="FLOAT", clamp_factor=True)
+    b.link(diff, mix.inputs["Factor"])
+    b.link(half_bz, _by_id(mix.inputs, "A_Float"))
+    _by_id(mix.inputs, "B_Float").default_value = 1.0
+    mode_scale = _by_id(mix.outputs, "Result_Float")
+
+    total = None
     for k in range(k_maps):
-        b.y = -k * 1800
-        # max(w, 0) with the node's clamp: clamp(w, 0, 1), the paper's per-zone clamp
-        w = [b.math("MAXIMUM", o[zone_socket(k, z)], 0.0, clamp=True) for z in range(N_ZONES)]
-        dot_a = b.vmath("DOT_PRODUCT", o["Mask A"], b.combine(w[0], w[1], w[2]))
-        dot_b = b.vmath("DOT_PRODUCT", o["Mask B"], b.combine(w[4], w[5], w[6]))
-        s = b.math("ADD", dot_a, dot_b)
+        # s_k = sum_z mask_z * Strength * clamp(w_kz, 0, 1): the MAXIMUM node's clamp is
+        # the paper's per-zone clamp
+        b.x, b.y = -1100, -k * 1800
+        w = [b.math("MULTIPLY", b.math("MAXIMUM", o[zone_socket(k, z)], 0.0, clamp=True), o["Strength"])
+             for z in range(N_ZONES)]
+        b.x = -700
+        s = b.math("ADD", b.vmath("DOT_PRODUCT", o["Mask A"], b.combine(w[0], w[1], w[2])),
+                   b.vmath("DOT_PRODUCT", o["Mask B"], b.combine(w[4], w[5], w[6])))
         s = b.math("MULTIPLY_ADD", o["Mask A Alpha"], w[3], s)
         s = b.math("MULTIPLY_ADD", o["Mask B Alpha"], w[7], s)
-        scales.append(b.math("MULTIPLY", s, o["Strength"]))
-
-    b.x, b.y = -400, 0
-    base = b.decode(o["Base Normal"])
-    bx, by, bz = b.separate(base)
-    bz = b.math("MAXIMUM", bz, 1e-6)
-    pd = b.combine(b.math("DIVIDE", bx, bz), b.math("DIVIDE", by, bz), 0.0)
-    diff = base
-    for k in range(k_maps):
-        m = b.decode(o[map_socket(k)])
-        mx, my, _mz = b.separate(m)
-        pd = b.vmath("ADD", pd, b.vmath("SCALE", b.combine(mx, my, 0.0), scale=scales[k]))
-        diff = b.vmath("ADD", diff, b.vmath("SCALE", m, scale=b.math("MULTIPLY", scales[k], 2.0)))
-    b.x, b.y = 400, 0
-    n_pd = b.vmath("NORMALIZE", b.vmath("ADD", pd, (0.0, 0.0, 1.0)))
-    n_diff = b.vmath("NORMALIZE", diff)
-    mix = b.node("ShaderNodeMix", data_type="VECTOR", clamp_factor=True)
-    b.link(o["Difference Maps"], mix.inputs["Factor"])
-    b.link(n_pd, _by_id(mix.inputs, "A_Vector"))
-    b.link(n_diff, _by_id(mix.inputs, "B_Vector"))
-    mixed = _by_id(mix.outputs, "Result_Vector")
-    color = b.vmath("MULTIPLY_ADD", mixed, (0.5, 0.5, 0.5), (0.5, 0.5, 0.5))
+        b.x = -300
+        term = b.vmath("SCALE", b.vmath("MULTIPLY_ADD", o[map_socket(k)], dec_mul, dec_add), scale=s)
+        total = term if total is None else b.vmath("ADD", total, term)
+    b.x, b.y = 300, 0
+    color = b.vmath("ADD", b.vmath("SCALE", total, scale=mode_scale), o["Base Normal"])
     nmap = b.node("ShaderNodeNormalMap", space="TANGENT")
     b.link(color, nmap.inputs["Color"])
     b.link(nmap.outputs["Normal"], gout.inputs["Normal"])
