@@ -40,6 +40,7 @@ SOURCES = (
     ("VERTEX_GROUPS", "Vertex Groups",
      "Each zone is a vertex group of the face: by default 'Wrinkle Zone 1' to 'Wrinkle Zone 8'"),
 )
+DEFAULT_SOFTNESS = 0.01  # zone border width on the skin, in the face's local units
 DEFAULT_GROUPS = tuple(f"Wrinkle Zone {z + 1}" for z in range(wrinkle_maps.N_ZONES))
 
 
@@ -149,14 +150,29 @@ def bake_height(face, mode, muscles=None, surface=None):
     each muscle's own pull at full contraction gave ``A`` of only 0.15-0.3: the Frontalis
     pulls 8 %, while the ICT head's shape keys compress the forehead by up to 40 %.)  The
     heights are summed where they belong: each vertex keeps only the wrinkles of the
-    muscles of its mask zone (:func:`muscle_zones`; vertices outside every zone keep the
-    muscles without one), so the map agrees with the generated masks and one expression's
-    zone does not show another muscle's wrinkles (the Corrugator's furrows reach into the
-    inner Frontalis' zone, where Surprise would show them).  "POSE": the current frame,
-    the deformed skin (shape keys, bones) and the current contractions, exactly as the
+    muscles of its mask zone (:func:`bake_layers`).  "POSE": the current frame, the
+    deformed skin (shape keys, bones) and the current contractions, exactly as the
     geometric wrinkles are evaluated (``A(eps)`` included).  ``muscles``: the muscle
     objects, by default all the face's muscles.  The face's Strength scales both.  Raises
     BakeError.
+    """
+    fields, layer, _weights = bake_layers(face, mode, muscles, surface)
+    return np.take_along_axis(fields, layer[:, None], axis=1)[:, 0]
+
+
+def bake_layers(face, mode, muscles=None, surface=None, softness=DEFAULT_SOFTNESS):
+    """The heights of :func:`bake_height` as fields (V, L) float32, the field each vertex
+    follows, ``layer`` (V,) int, and soft weights (V, L) of the fields (rows sum to 1).
+
+    "MUSCLES": one field per mask zone that occurs (:func:`muscle_zones`; vertices outside
+    every zone form one more), the summed wrinkles of that zone's muscles over the whole
+    face; each vertex follows its zone's.  So the map agrees with the generated masks and
+    one expression's zone does not show another muscle's wrinkles (the Corrugator's
+    furrows reach into the inner Frontalis' zone, where Surprise would show them).  The
+    weights are the layers softened over ``softness`` on the skin, as Generate Masks
+    softens the zones by default: the smooth slopes then pass from one zone's wrinkles
+    to the next over the masks' soft border, where cutting the heights at the zone
+    border put a streak of steep slopes along it.  "POSE": one field.
     """
     if mode not in ("MUSCLES", "POSE"):
         raise BakeError(f"Unknown bake mode {mode!r}")
@@ -165,18 +181,27 @@ def bake_height(face, mode, muscles=None, surface=None):
     core = [muscle_objects.to_core(m, face) for m in muscles]
     strength = float(face.wrinkles.strength)
     rest = surface.rest
-    if mode == "MUSCLES":
-        plan = system.build_plan(rest, surface.edges, surface.tris, core)
-        total = np.zeros(len(rest), np.float32)
-        zone = _vertex_zone(face, surface, muscles)
-        for i, ob in enumerate(muscles):
-            h = system.formed_heights(plan, i, strength)
-            total += np.where(np.isin(zone, _zones_of(ob)), h, 0.0)
-        return total
     plan = system.build_plan(rest, surface.edges, surface.tris, core)
-    skin = evaluated_skin(face, len(rest))
-    contraction = np.array([m.wrinkle_muscle.contraction for m in muscles], np.float64)
-    return system.heights(plan, skin, contraction, strength)
+    if mode == "POSE":
+        skin = evaluated_skin(face, len(rest))
+        contraction = np.array([m.wrinkle_muscle.contraction for m in muscles], np.float64)
+        h = system.heights(plan, skin, contraction, strength)
+        return np.asarray(h, np.float32)[:, None], np.zeros(len(rest), np.int64), np.ones((len(rest), 1))
+    zone = _vertex_zone(face, surface, muscles)
+    present, layer = np.unique(zone, return_inverse=True)
+    fields = np.zeros((len(rest), len(present)), np.float32)
+    for i, ob in enumerate(muscles):
+        keep = np.isin(present, _zones_of(ob))
+        if keep.any():
+            fields[:, keep] += system.formed_heights(plan, i, strength)[:, None]
+    layer = layer.ravel()
+    one_hot = (layer[:, None] == np.arange(len(present))).astype(np.float64)
+    # softened like the masks (a small zone keeps its full weight inside); where the
+    # softened layers sum to more than 1 they are divided by the sum, and as the diffusion
+    # keeps rows summing to 1 and each layer is only scaled up, that is everywhere
+    weights = uvbake.soften(one_hot, surface.edges, uvbake.diffusion_time(
+        softness, _median_edge(rest, surface.edges, zone >= 0)))
+    return fields, layer, weights
 
 
 def _zones_of(ob):
@@ -217,12 +242,16 @@ def bake_wrinkle_map(face, resolution, mode, uv_map=None, muscles=None, progress
     step(0.0, "reading the mesh")
     surface = Surface(face, uv_map)
     step(0.05, "wrinkle heights")
-    h = bake_height(face, mode, muscles, surface)
+    fields, layer, weights = bake_layers(face, mode, muscles, surface)
     step(0.3, f"rasterising {R} x {R}")
     uv = surface.uv
-    islands = None if smooth else uvbake.uv_islands(uv, surface.tris)
-    pd = uvbake.pd_map(uv, surface.rest[surface.tris], h[surface.tris], R, smooth=smooth, verts=surface.tris,
-                       islands=islands, padding=_padding(R))
+    if smooth:
+        pd = uvbake.pd_map(uv, surface.rest[surface.tris], fields[surface.tris], R, smooth=True,
+                           verts=surface.tris, padding=_padding(R), weights=weights)
+    else:  # per-pixel differences need one height: the zones' fields cut together
+        h = np.take_along_axis(fields, layer[:, None], axis=1)[:, 0]
+        pd = uvbake.pd_map(uv, surface.rest[surface.tris], h[surface.tris], R, islands=uvbake.uv_islands(
+            uv, surface.tris), padding=_padding(R))
     step(0.9, "storing the image")
     return pd
 
@@ -248,7 +277,8 @@ def muscle_zones(face, surface=None, muscles=None):
     that keeps the fall-off across the sheet (``At``) and at the ends, without stripes.
     The zone of a muscle comes from its role and side (``wrinkle_maps.ZONE_OF_ROLE``; a
     centre muscle fills the left zone on +X and the right one on -X); a zone takes the
-    largest membership of its muscles, and each vertex keeps only its strongest zone.
+    largest membership of its muscles, and each vertex keeps only the zone whose muscle
+    has the largest envelope there.
     Raises BakeError if no muscle has a role with a zone.
     """
     surface = surface or Surface(face, need_uv=False)
@@ -256,6 +286,7 @@ def muscle_zones(face, surface=None, muscles=None):
     rest = surface.rest
     n = len(rest)
     zones = np.zeros((n, wrinkle_maps.N_ZONES), np.float32)
+    raw = np.zeros((n, wrinkle_maps.N_ZONES), np.float32)
     used = 0
     for ob in muscles:
         s = ob.wrinkle_muscle
@@ -280,17 +311,22 @@ def muscle_zones(face, surface=None, muscles=None):
             left = rest[:, 0] >= 0.0  # the character's left is +X
             zones[:, pair[0]] = np.maximum(zones[:, pair[0]], np.where(left, env / top, 0.0))
             zones[:, pair[1]] = np.maximum(zones[:, pair[1]], np.where(left, 0.0, env / top))
+            raw[:, pair[0]] = np.maximum(raw[:, pair[0]], np.where(left, env, 0.0))
+            raw[:, pair[1]] = np.maximum(raw[:, pair[1]], np.where(left, 0.0, env))
             continue
         for z in targets:
             zones[:, z] = np.maximum(zones[:, z], env / top)
+            raw[:, z] = np.maximum(raw[:, z], env)
     if used == 0:
         raise BakeError(f'No muscle of "{face.name}" wrinkles a mask zone: the zones come from '
                         "the Frontalis, Corrugator, Nasalis and Mentalis roles (Add Facial Muscle Set)")
     # The paper's zones are disjoint parts of the face; muscle regions overlap (the
     # Corrugator's lies inside the inner Frontalis'), and sharing an overlap between zones
     # left the brows at a third of their weight on the ICT head.  So each vertex goes to
-    # its strongest zone alone; the soft borders are made afterwards.
-    strongest = zones.argmax(axis=1)
+    # one zone alone, the one whose muscle wrinkles it most (the raw envelope: normalised
+    # per muscle, the broad Frontalis took all but 56 of the Corrugator's vertices and
+    # Anger's frown lines vanished); the soft borders are made afterwards.
+    strongest = raw.argmax(axis=1)
     return np.where(np.arange(wrinkle_maps.N_ZONES) == strongest[:, None], zones, 0.0).astype(np.float32)
 
 
@@ -508,7 +544,7 @@ class WRINKLE_OT_generate_masks(bpy.types.Operator):
     softness: FloatProperty(
         name="Softness",
         description="Width of the soft border around each zone, measured on the skin",
-        default=0.01, min=0.0, soft_max=0.05, subtype="DISTANCE",
+        default=DEFAULT_SOFTNESS, min=0.0, soft_max=0.05, subtype="DISTANCE",
     )
     resolution: EnumProperty(
         name="Resolution",

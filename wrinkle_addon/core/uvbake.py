@@ -255,7 +255,7 @@ def uv_jacobian(positions, uv):
     return _frames(positions, uv)[0]
 
 
-def vertex_slopes(uv, positions, heights, verts):
+def vertex_slopes(uv, positions, heights, verts, weights=None):
     """Smooth tangent-space slopes per triangle corner (T, 3, 2): ``(a, b)`` of
     :func:`slopes` from the height's surface gradient averaged at the mesh vertices.
 
@@ -264,21 +264,34 @@ def vertex_slopes(uv, positions, heights, verts):
     UV seams too: ``g`` is a vector on the skin, not in UV), and each corner projects it
     on its own triangle's ``T`` and ``B``.  It is the map counterpart of smooth shading,
     whose vertex normals are the area-weighted mean of the face normals.
+
+    ``heights`` (T, 3) or, with ``weights``, (T, 3, L): L height fields, and ``weights``
+    (V, L) how much each vertex follows each (rows summing to 1).  Vertex v then averages
+    ``sum_l weights[v, l] g_l`` over its triangles, so where neighbouring vertices follow
+    different fields the slopes pass smoothly from one field's to the other's; cutting
+    the fields together into one height first would put a step, and so a streak of steep
+    slopes, along every border.
     """
     frame, tan, bit, grad_rows, area = _frames(positions, uv)
-    h = np.asarray(heights, dtype=np.float64).reshape(-1, 3)
     verts = np.asarray(verts, dtype=np.int64).reshape(-1, 3)
-    dh = np.stack([h[:, 1] - h[:, 0], h[:, 2] - h[:, 0]], 1)
-    huv = np.einsum("tij,tj->ti", grad_rows, dh)  # (dh/du, dh/dv)
-    su, c, sv = frame.T
+    h = np.asarray(heights, dtype=np.float64)
+    h = h.reshape(len(verts), 3, -1) if weights is not None else h.reshape(-1, 3, 1)
+    dh = np.stack([h[:, 1] - h[:, 0], h[:, 2] - h[:, 0]], 1)  # (T, 2, L)
+    huv = np.einsum("tij,tjl->til", grad_rows, dh)  # (dh/du, dh/dv) per field
+    su, c, sv = (x[:, None] for x in frame.T)
     ok = su > 0
     a = np.where(ok, huv[:, 0] / np.where(ok, su, 1.0), 0.0)
     b = np.where(ok, (huv[:, 1] - a * c) / np.where(ok, sv, 1.0), 0.0)
-    g = (a[:, None] * tan + b[:, None] * bit) * area[:, None]
+    g = (a[:, None] * tan[:, :, None] + b[:, None] * bit[:, :, None]) * area[:, None, None]  # (T, 3, L)
+    if weights is None:
+        corner_g = np.repeat(g[:, None, :, 0], 3, axis=1)  # (T, 3 corners, 3)
+    else:  # each corner contributes the fields its vertex follows
+        corner_g = np.einsum("tkl,tcl->tck", g, np.asarray(weights, np.float64)[verts])
     n = int(verts.max()) + 1 if verts.size else 0
     idx = verts.ravel()
     weight = np.bincount(idx, weights=np.repeat(area, 3), minlength=n)
-    gv = np.stack([np.bincount(idx, weights=np.repeat(g[:, k], 3), minlength=n) for k in range(3)], 1)
+    flat = corner_g.reshape(-1, 3)
+    gv = np.stack([np.bincount(idx, weights=flat[:, k], minlength=n) for k in range(3)], 1)
     gv /= np.where(weight > 0, weight, 1.0)[:, None]
     corner_g = gv[verts]  # (T, 3, 3)
     return np.stack([np.einsum("tcj,tj->tc", corner_g, tan), np.einsum("tcj,tj->tc", corner_g, bit)], -1)
@@ -321,7 +334,7 @@ def _neighbour_masks(island_img, axis):
 
 
 def slopes(uv, positions, heights, resolution, *, smooth=False, verts=None, islands=None, padding=8,
-           block_rows=256, chunk_pixels=CHUNK_PIXELS):
+           block_rows=256, chunk_pixels=CHUNK_PIXELS, weights=None):
     """The tangent-space PD slopes (R, R, 2) float32 and coverage of a height field.
 
     ``uv`` (T, 3, 2), ``positions`` (T, 3, 3) and ``heights`` (T, 3) per triangle corner;
@@ -347,7 +360,9 @@ def slopes(uv, positions, heights, resolution, *, smooth=False, verts=None, isla
     so the slopes are constant per triangle: the map shows the facets, like flat shading.
     With ``smooth`` (needs ``verts`` (T, 3), the corners' mesh vertices), ``(a, b)`` come
     from :func:`vertex_slopes` at the corners and are interpolated over the triangles,
-    like smooth shading.  The slopes are NOT clipped here (see :func:`pd_map`).  Then
+    like smooth shading; ``heights`` may then be (T, 3, L) fields with ``weights`` (V, L)
+    per vertex (see :func:`vertex_slopes`).  The slopes are NOT clipped here (see
+    :func:`pd_map`).  Then
     :func:`pad` extends them ``padding`` pixels beyond the islands; elsewhere they are 0.
     """
     R = int(resolution)
@@ -355,11 +370,13 @@ def slopes(uv, positions, heights, resolution, *, smooth=False, verts=None, isla
     if smooth:
         if verts is None:
             raise ValueError("smooth slopes need the corners' mesh vertices (verts)")
-        ab = vertex_slopes(uv, positions, heights, verts)
+        ab = vertex_slopes(uv, positions, heights, verts, weights)
         out, covered = rasterize(uv, -ab, R, chunk_pixels=chunk_pixels)
         if padding:
             out, _cov = pad(out, covered, padding)
         return out, covered
+    if weights is not None:
+        raise ValueError("weighted height fields need smooth slopes")
     frame = uv_jacobian(positions, uv).astype(_F)
     if islands is None:
         islands = uv_islands(uv)
@@ -394,7 +411,7 @@ def slopes(uv, positions, heights, resolution, *, smooth=False, verts=None, isla
 
 
 def pd_map(uv, positions, heights, resolution, *, smooth=False, verts=None, islands=None, padding=8,
-           chunk_pixels=CHUNK_PIXELS):
+           chunk_pixels=CHUNK_PIXELS, weights=None):
     """A partial-derivative wrinkle map (R, R, 4) float32 of a height field (§1.2).
 
     RG = ``wrinkle_maps.encode(clip(n', -1, 1))`` with ``n' = (-dh/ds_u, -dh/ds_v)`` from
@@ -403,7 +420,7 @@ def pd_map(uv, positions, heights, resolution, *, smooth=False, verts=None, isla
     Pixels outside the UV islands (beyond the padding) hold the flat value 0.5.
     """
     s, _covered = slopes(uv, positions, heights, resolution, smooth=smooth, verts=verts, islands=islands,
-                         padding=padding, chunk_pixels=chunk_pixels)
+                         padding=padding, chunk_pixels=chunk_pixels, weights=weights)
     R = s.shape[0]
     out = np.empty((R, R, 4), _F)
     np.clip(s, -1.0, 1.0, out=s)
