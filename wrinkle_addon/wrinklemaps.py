@@ -197,6 +197,9 @@ def setup(face, material=None):
         img.colorspace_settings.name = "Non-Color"  # every one of them is data
         if prop.startswith("mask"):
             img.alpha_mode = "CHANNEL_PACKED"  # the alpha is zone 4 / 8, not coverage
+            # no zone outside the 0-1 square: UVs in other tiles (a head's back, the
+            # mouth's inside) would otherwise wrap around onto the face's zones
+            node.extension = "CLIP"
         nt.links.new(uv.outputs["UV"], node.inputs["Vector"])
     nt.links.new(blend.outputs["Normal"], bsdf.inputs["Normal"])
     sync(face, rebind=True)

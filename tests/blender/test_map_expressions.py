@@ -71,6 +71,28 @@ def test_surprise_plus_anger_smooths_the_forehead(render_small, tmp_path):
     assert dev_both[:half].max() < 0.3 * dev_surprise[:half].max() + 1e-3
 
 
+def test_uvs_outside_the_0_1_square_get_no_wrinkles(render_small, tmp_path):
+    """The masks cover the 0-1 UV square: UVs in another tile (the ICT head's back of the
+    head lies at u 1-2) must not wrap around onto the face's zones."""
+    rng = np.random.default_rng(1)
+    face, _map_a, _mask_a, _mask_b = _forehead_face(rng)
+    assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
+    assert bpy.ops.wrinkle.load_map_preset(preset="TABLE_1_1") == {"FINISHED"}
+    mapscenes.show_blend_output(face.wrinkles.maps.material)
+    face.data.shape_keys.key_blocks["browInnerUp_L"].value = 1.0
+    flat = wm.encode(wm.normalize(wm.decode(FLAT)))
+    inside = _render(render_small, tmp_path, "in.exr")
+    uv = np.empty(len(face.data.loops) * 2, np.float32)
+    layer = face.data.uv_layers.active.uv
+    layer.foreach_get("vector", uv)
+    uv[0::2] += 1.0  # the next tile along u
+    layer.foreach_set("vector", uv)
+    face.data.update()
+    outside = _render(render_small, tmp_path, "out.exr")
+    assert np.abs(inside - flat).max(axis=2).min() > 0.01
+    assert np.abs(outside - flat).max() < 1e-5
+
+
 def test_twenty_expressions_times_eight_zones(render_small, tmp_path):
     """Every zone sums 20 driven expressions: no expression-length limit, exact sums,
     per-zone strength and response curve."""
