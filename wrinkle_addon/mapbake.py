@@ -230,7 +230,8 @@ def _padding(resolution):
 def bake_wrinkle_map(face, resolution, mode, uv_map=None, muscles=None, progress=None, smooth=True):
     """The PD wrinkle map (R, R, 4) float32 of ``face`` (see :func:`bake_height` for
     ``mode`` and ``muscles``; ``core.uvbake.slopes`` for the formula).  The slopes are in
-    the tangent space of the rest mesh and ``uv_map`` (empty: see :func:`uv_layer`).
+    the tangent space of the rest mesh and ``uv_map`` (empty: see :func:`uv_layer`), in
+    world lengths (``core.uvbake.to_world``: the object's scale, even non-uniform).
     ``smooth``: slopes from vertex gradients interpolated over the triangles, like smooth
     shading of the geometric wrinkles; else finite differences per pixel, which show the
     triangles as facets.  ``progress(fraction, message)`` is called between the steps.
@@ -243,15 +244,19 @@ def bake_wrinkle_map(face, resolution, mode, uv_map=None, muscles=None, progress
     surface = Surface(face, uv_map)
     step(0.05, "wrinkle heights")
     fields, layer, weights = bake_layers(face, mode, muscles, surface)
+    try:  # in world lengths: a non-uniform object scale changes the slopes
+        rest, fields = uvbake.to_world(surface.rest, surface.tris, fields, face.matrix_world.to_3x3())
+    except ValueError as exc:
+        raise BakeError(f'"{face.name}": {exc}; give it a scale to bake') from None
     step(0.3, f"rasterising {R} x {R}")
-    uv = surface.uv
+    uv, tris = surface.uv, surface.tris
     if smooth:
-        pd = uvbake.pd_map(uv, surface.rest[surface.tris], fields[surface.tris], R, smooth=True,
-                           verts=surface.tris, padding=_padding(R), weights=weights)
+        pd = uvbake.pd_map(uv, rest[tris], fields[tris], R, smooth=True, verts=tris, padding=_padding(R),
+                           weights=weights)
     else:  # per-pixel differences need one height: the zones' fields cut together
         h = np.take_along_axis(fields, layer[:, None], axis=1)[:, 0]
-        pd = uvbake.pd_map(uv, surface.rest[surface.tris], h[surface.tris], R, islands=uvbake.uv_islands(
-            uv, surface.tris), padding=_padding(R))
+        pd = uvbake.pd_map(uv, rest[tris], h[tris], R, islands=uvbake.uv_islands(uv, tris),
+                           padding=_padding(R))
     step(0.9, "storing the image")
     return pd
 

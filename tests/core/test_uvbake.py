@@ -223,6 +223,26 @@ def test_weighted_height_fields_meet_without_a_streak():
         uvbake.slopes(uv[tris], pos[tris], fields[tris], R, weights=soft)
 
 
+def test_a_non_uniform_scale_changes_the_slopes_and_a_uniform_one_does_not():
+    size, amp = 0.2, 0.002
+    uv, pos, tris = _plane(n=65, size=size)  # normal +Z
+    h = amp * np.sin(2 * np.pi * uv[:, 0])
+
+    def bake(matrix):
+        p, hh = uvbake.to_world(pos, tris, h, matrix)
+        return uvbake.slopes(uv[tris], p[tris], hh[tris], 64, smooth=True, verts=tris, padding=0)[0]
+
+    plain = bake(np.eye(3))
+    assert np.abs(plain).max() > 0.01
+    np.testing.assert_allclose(bake(np.diag([3.0, 3.0, 3.0])), plain, atol=1e-6)
+    rot = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    np.testing.assert_allclose(bake(rot), plain, atol=1e-6)  # slopes live in tangent space
+    np.testing.assert_allclose(bake(np.diag([2.0, 1.0, 1.0])), plain / 2, atol=1e-6)  # u runs 2x longer
+    np.testing.assert_allclose(bake(np.diag([1.0, 1.0, 3.0])), plain * 3, atol=1e-6)  # heights 3x taller
+    with pytest.raises(ValueError, match="zero"):
+        uvbake.to_world(pos, tris, h, np.diag([1.0, 0.0, 1.0]))
+
+
 def test_smooth_slopes_are_continuous_where_per_pixel_slopes_are_faceted():
     uv, pos, tris = _plane(n=9, size=0.1)
     h = 0.004 * np.sin(2 * np.pi * uv[:, 0]) * np.cos(2 * np.pi * uv[:, 1])

@@ -410,6 +410,27 @@ def slopes(uv, positions, heights, resolution, *, smooth=False, verts=None, isla
     return out, covered
 
 
+def to_world(positions, tris, heights, matrix):
+    """Positions (V, 3) and heights (V, ...) of a mesh in object space, moved to the space
+    of ``matrix`` (3, 3), the object's world matrix without translation.
+
+    Slopes are lengths over lengths, so a uniform scale leaves a map unchanged, but a
+    non-uniform one stretches the surface unevenly: the map must be baked in the space it
+    is rendered in.  A height ``h`` along the unit object-space normal ``N`` moves the
+    surface by ``h M N``, whose part along the world normal ``M^-T N / |M^-T N|`` is
+    ``h / |M^-T N|``.  Raises ValueError for a singular matrix (a zero scale).
+    """
+    m = np.asarray(matrix, np.float64).reshape(3, 3)
+    if abs(np.linalg.det(m)) < 1e-12:
+        raise ValueError("the object's scale is zero along an axis")
+    p = np.asarray(positions, np.float64)
+    n = mesh.vertex_normals(p, tris, len(p))
+    stretch = np.linalg.norm(n @ np.linalg.inv(m), axis=1)  # |M^-T N| per vertex, as rows
+    h = np.asarray(heights, np.float64)
+    scale = np.where(stretch > 0, 1.0 / np.where(stretch > 0, stretch, 1.0), 1.0)
+    return p @ m.T, h * scale.reshape((-1,) + (1,) * (h.ndim - 1))
+
+
 def pd_map(uv, positions, heights, resolution, *, smooth=False, verts=None, islands=None, padding=8,
            chunk_pixels=CHUNK_PIXELS, weights=None):
     """A partial-derivative wrinkle map (R, R, 4) float32 of a height field (§1.2).
