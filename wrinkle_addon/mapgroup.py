@@ -13,7 +13,8 @@ maps, each with its own 8 zone weights (Oat's stretch and compress maps are K = 
 with ``b = decode(Base Normal)`` a standard tangent-space normal map, converted to a
 partial derivative in the shader so artists keep their base map; ``Difference Maps`` (0
 or 1) picks §1.2.1's difference maps instead of PD maps.  The result goes through a
-Normal Map node (tangent space of the render-active UV map) to the ``Normal`` output.
+Normal Map node (tangent space of the render-active UV map) to the ``Normal`` output;
+the ``Color`` output is its input, for a Normal Map node of another UV map.
 :func:`core.wrinkle_maps.blend` is the NumPy reference; a Cycles test compares them.
 
 ``Wrinkle Weights <face>`` (one per face) turns the expression values into the zone
@@ -33,7 +34,7 @@ from .core.wrinkle_maps import N_ZONES, ZONES
 
 BLEND_GROUP = "Wrinkle Map Blend"
 WEIGHTS_PREFIX = "Wrinkle Weights"
-VERSION = 2  # 2: the cheaper graph (no division, no normalisation)
+VERSION = 3  # 2: the cheaper graph (no division, no normalisation); 3: the Color output
 FLAT = (0.5, 0.5, 0.5, 1.0)  # decodes to 0 in both PD and difference maps
 
 
@@ -74,8 +75,14 @@ def map_count(ng):
 def _ensure_interface(ng, n_maps):
     """Add missing sockets only, so links from materials that use the group survive."""
     have = _inputs(ng)
-    if not any(s.in_out == "OUTPUT" for s in ng.interface.items_tree if s.item_type == "SOCKET"):
-        ng.interface.new_socket("Normal", in_out="OUTPUT", socket_type="NodeSocketVector")
+    outputs = {s.name for s in ng.interface.items_tree if s.item_type == "SOCKET" and s.in_out == "OUTPUT"}
+    if "Normal" not in outputs:
+        s = ng.interface.new_socket("Normal", in_out="OUTPUT", socket_type="NodeSocketVector")
+        s.description = "The blended normal, through a Normal Map node of the render-active UV map"
+    if "Color" not in outputs:
+        s = ng.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+        s.description = ("The blended normal as a tangent-space colour, not normalised: feed it to "
+                         "a Normal Map node to use the tangents of another UV map")
     spec = [
         ("Strength", "NodeSocketFloat", 1.0, 0.0, 10.0, "Overall strength of the wrinkle maps"),
         ("Difference Maps", "NodeSocketFloat", 0.0, 0.0, 1.0,
@@ -226,6 +233,7 @@ def _build_blend(ng):
     nmap = b.node("ShaderNodeNormalMap", space="TANGENT")
     b.link(color, nmap.inputs["Color"])
     b.link(nmap.outputs["Normal"], gout.inputs["Normal"])
+    b.link(color, gout.inputs["Color"])
     ng["wrinkle_map_version"] = VERSION
 
 

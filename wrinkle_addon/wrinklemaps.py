@@ -21,13 +21,14 @@ from .core.wrinkle_maps import N_ZONES
 BLEND_NODE = "Wrinkle Map Blend"
 WEIGHTS_NODE = "Wrinkle Weights"
 UV_NODE = "Wrinkle UV"
+NORMAL_NODE = "Wrinkle Normal Map"
 # (settings property, image node, blend-group input it feeds)
 IMAGE_NODES = (("base_image", "Wrinkle Base", "Base Normal"),
                ("map_a", "Wrinkle Map 1", mapgroup.map_socket(0)),
                ("map_b", "Wrinkle Map 2", mapgroup.map_socket(1)),
                ("mask_a", "Wrinkle Mask A", "Mask A"),
                ("mask_b", "Wrinkle Mask B", "Mask B"))
-_OURS = {BLEND_NODE, WEIGHTS_NODE, UV_NODE} | {n for _p, n, _s in IMAGE_NODES}
+_OURS = {BLEND_NODE, WEIGHTS_NODE, UV_NODE, NORMAL_NODE} | {n for _p, n, _s in IMAGE_NODES}
 _problems = {}  # face session_uid -> {expression index: message}
 _tension = {}  # face session_uid -> (key, rest, edges, vertex masks (V, 8))
 _status = {}  # face session_uid -> message
@@ -201,7 +202,17 @@ def setup(face, material=None):
             # mouth's inside) would otherwise wrap around onto the face's zones
             node.extension = "CLIP"
         nt.links.new(uv.outputs["UV"], node.inputs["Vector"])
-    nt.links.new(blend.outputs["Normal"], bsdf.inputs["Normal"])
+    normal = blend.outputs["Normal"]
+    nmap = nt.nodes.get(NORMAL_NODE)
+    if maps.uv_map:  # the shared group's Normal Map node has the render-active UV map's tangents
+        nmap = _node(nt, NORMAL_NODE, "ShaderNodeNormalMap", (x - 150, y - 600))
+        nmap.space = "TANGENT"
+        nmap.uv_map = maps.uv_map
+        nt.links.new(blend.outputs["Color"], nmap.inputs["Color"])
+        normal = nmap.outputs["Normal"]
+    elif nmap is not None:
+        nt.nodes.remove(nmap)
+    nt.links.new(normal, bsdf.inputs["Normal"])
     sync(face, rebind=True)
     return mat
 

@@ -132,13 +132,15 @@ def skin_plane(size, mask_a, mask_b, map_a, base=None, keys=(), cuts=0):
 
 
 def show_blend_output(mat):
-    """Make the material emit 0.5 + 0.5 N of the wired "Wrinkle Map Blend" node (an extra,
-    active Material Output), so a render shows the blended normal exactly."""
+    """Make the material emit 0.5 + 0.5 N of the normal the wiring feeds the Principled
+    BSDF (an extra, active Material Output), so a render shows the blended normal exactly."""
     nt = mat.node_tree
+    bsdf = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
+    normal = bsdf.inputs["Normal"].links[0].from_socket
     for n in nt.nodes:
         if n.type == "OUTPUT_MATERIAL":
             n.is_active_output = False
-    emit_normal(nt, nt.nodes["Wrinkle Map Blend"].outputs["Normal"]).is_active_output = True
+    emit_normal(nt, normal).is_active_output = True
     for _prop, image_node_name, _socket in wrinklemaps.IMAGE_NODES:
         n = nt.nodes.get(image_node_name)
         if n is not None:

@@ -93,6 +93,35 @@ def test_uvs_outside_the_0_1_square_get_no_wrinkles(render_small, tmp_path):
     assert np.abs(outside - flat).max() < 1e-5
 
 
+def test_a_wrinkle_uv_map_other_than_the_render_one_gets_its_own_tangents(render_small, tmp_path):
+    """The shared group's Normal Map node uses the render-active UV map; a face whose maps
+    live on another UV map gets a Normal Map node of that map, so its tangents match."""
+    rng = np.random.default_rng(2)
+    face, map_a, mask_a, mask_b = _forehead_face(rng)
+    me = face.data
+    own = me.uv_layers.active.name
+    uv = np.empty(len(me.loops) * 2, np.float32)
+    me.uv_layers[own].uv.foreach_get("vector", uv)
+    uv = uv.reshape(-1, 2)
+    turned = me.uv_layers.new(name="Turned")  # the same layout turned by 90 degrees
+    turned.uv.foreach_set("vector", np.stack([1.0 - uv[:, 1], uv[:, 0]], 1).ravel())
+    turned.active_render = True
+    face.wrinkles.maps.uv_map = own
+    assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
+    assert bpy.ops.wrinkle.load_map_preset(preset="TABLE_1_1") == {"FINISHED"}
+    mat = face.wrinkles.maps.material
+    assert mat.node_tree.nodes[wrinklemaps.NORMAL_NODE].uv_map == own
+    mapscenes.show_blend_output(mat)
+    me.shape_keys.key_blocks["browInnerUp_L"].value = 1.0
+    got = _render(render_small, tmp_path)
+    values = np.array([float(ex.name == "Surprise") for ex in face.wrinkles.maps.expressions])
+    assert np.abs(got - _expected(face, values, map_a, mask_a, mask_b)).max() < 1e-4
+    # back on the render UV map, the extra node goes
+    face.wrinkles.maps.uv_map = ""
+    assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
+    assert wrinklemaps.NORMAL_NODE not in mat.node_tree.nodes
+
+
 def test_twenty_expressions_times_eight_zones(render_small, tmp_path):
     """Every zone sums 20 driven expressions: no expression-length limit, exact sums,
     per-zone strength and response curve."""
