@@ -296,6 +296,36 @@ class WrinkleMapSettings(bpy.types.PropertyGroup):
         description="Second wrinkle map, e.g. the stretched pose (Oat 2007); may stay empty",
         type=bpy.types.Image,
     )
+    map_c: PointerProperty(
+        name="Wrinkle Map 3",
+        description="Wrinkle map 3, for the expressions whose Map is 3 (shown when one is)",
+        type=bpy.types.Image,
+    )
+    map_d: PointerProperty(
+        name="Wrinkle Map 4",
+        description="Wrinkle map 4, for the expressions whose Map is 4 (shown when one is)",
+        type=bpy.types.Image,
+    )
+    map_e: PointerProperty(
+        name="Wrinkle Map 5",
+        description="Wrinkle map 5, for the expressions whose Map is 5 (shown when one is)",
+        type=bpy.types.Image,
+    )
+    map_f: PointerProperty(
+        name="Wrinkle Map 6",
+        description="Wrinkle map 6, for the expressions whose Map is 6 (shown when one is)",
+        type=bpy.types.Image,
+    )
+    map_g: PointerProperty(
+        name="Wrinkle Map 7",
+        description="Wrinkle map 7, for the expressions whose Map is 7 (shown when one is)",
+        type=bpy.types.Image,
+    )
+    map_h: PointerProperty(
+        name="Wrinkle Map 8",
+        description="Wrinkle map 8, for the expressions whose Map is 8 (shown when one is)",
+        type=bpy.types.Image,
+    )
     mask_a: PointerProperty(
         name="Mask A",
         description="RGBA mask of zones 1-4",

@@ -159,7 +159,7 @@ class VIEW3D_PT_wrinkle_maps(bpy.types.Panel):
         col.use_property_split = True
         if face.data.uv_layers:
             col.prop_search(m, "uv_map", face.data, "uv_layers")
-        for prop in ("base_image", "map_a", "map_b", "mask_a", "mask_b"):
+        for prop in ("base_image", *wrinklemaps.MAP_PROPS[:wrinklemaps.n_maps(m)], "mask_a", "mask_b"):
             col.prop(m, prop)
         col = layout.column(align=True)
         col.label(text="Convert maps you already have")

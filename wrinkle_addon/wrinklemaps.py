@@ -23,9 +23,9 @@ WEIGHTS_NODE = "Wrinkle Weights"
 UV_NODE = "Wrinkle UV"
 NORMAL_NODE = "Wrinkle Normal Map"
 # (settings property, image node, blend-group input it feeds)
+MAP_PROPS = ("map_a", "map_b", "map_c", "map_d", "map_e", "map_f", "map_g", "map_h")  # maps 1-8
 IMAGE_NODES = (("base_image", "Wrinkle Base", "Base Normal"),
-               ("map_a", "Wrinkle Map 1", mapgroup.map_socket(0)),
-               ("map_b", "Wrinkle Map 2", mapgroup.map_socket(1)),
+               *((prop, f"Wrinkle Map {k + 1}", mapgroup.map_socket(k)) for k, prop in enumerate(MAP_PROPS)),
                ("mask_a", "Wrinkle Mask A", "Mask A"),
                ("mask_b", "Wrinkle Mask B", "Mask B"))
 _OURS = {BLEND_NODE, WEIGHTS_NODE, UV_NODE, NORMAL_NODE} | {n for _p, n, _s in IMAGE_NODES}
@@ -54,7 +54,10 @@ def binding_problem(face, e):
 
 
 def n_maps(maps):
-    return max([2] + [ex.map_index for ex in maps.expressions])
+    """How many wrinkle maps the face uses: at least 2, and every map an expression or an
+    image slot refers to."""
+    slots = [k + 1 for k, prop in enumerate(MAP_PROPS) if getattr(maps, prop) is not None]
+    return max([2] + slots + [ex.map_index for ex in maps.expressions])
 
 
 def table(maps):
@@ -111,17 +114,19 @@ def check(face, material=None):
         return f'The material "{mat.name}" is linked and read-only: make it local'
     if mat.node_tree is None or _principled(mat.node_tree) is None:
         return f'The material "{mat.name}" has no Principled BSDF to feed'
+    wrinkle_maps = [(f"Wrinkle map {k + 1}", getattr(maps, prop)) for k, prop in enumerate(MAP_PROPS)]
     for label, img, alpha, square in (
         ("The base normal map", maps.base_image, False, False),
-        ("Wrinkle map 1", maps.map_a, False, True),
-        ("Wrinkle map 2", maps.map_b, False, True),
+        *((label, img, False, True) for label, img in wrinkle_maps),
         ("Mask A", maps.mask_a, True, True),
         ("Mask B", maps.mask_b, True, True),
     ):
         why = _image_problem(label, img, square, alpha)
         if why:
             return why
-    for a, b, what in ((maps.map_a, maps.map_b, "wrinkle maps"), (maps.mask_a, maps.mask_b, "masks")):
+    present = [img for _label, img in wrinkle_maps if img is not None]
+    pairs = [(present[0], img, "wrinkle maps") for img in present[1:]] + [(maps.mask_a, maps.mask_b, "masks")]
+    for a, b, what in pairs:
         if a is not None and b is not None and tuple(a.size) != tuple(b.size):
             return (f'The {what} "{a.name}" ({a.size[0]} x {a.size[1]}) and "{b.name}" '
                     f"({b.size[0]} x {b.size[1]}) differ in size")

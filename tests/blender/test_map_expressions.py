@@ -122,6 +122,33 @@ def test_a_wrinkle_uv_map_other_than_the_render_one_gets_its_own_tangents(render
     assert wrinklemaps.NORMAL_NODE not in mat.node_tree.nodes
 
 
+def test_a_third_map_from_its_panel_slot(render_small, tmp_path):
+    """Maps 3-8 have slots too: an image in Wrinkle Map 3 is wired into the group's Map 3
+    and carries the expressions whose Map is 3."""
+    rng = np.random.default_rng(4)
+    face, map_a, mask_a, mask_b = _forehead_face(rng)
+    map_c = _pd_map(rng)
+    maps = face.wrinkles.maps
+    maps.map_c = mapscenes.data_image("Third", map_c)
+    assert wrinklemaps.n_maps(maps) == 3
+    assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
+    assert bpy.ops.wrinkle.load_map_preset(preset="TABLE_1_1") == {"FINISHED"}
+    maps.expressions["Surprise"].map_index = 3
+    nt = maps.material.node_tree
+    assert nt.nodes["Wrinkle Map 3"].outputs["Color"].links[0].to_socket.name == mapgroup.map_socket(2)
+    mapscenes.show_blend_output(maps.material)
+    face.data.shape_keys.key_blocks["browInnerUp_L"].value = 1.0
+    got = _render(render_small, tmp_path)
+    row = wm.zone_response(maps.expressions["Surprise"].weights, np.array(maps.zone_strength),
+                           np.array(maps.zone_power))
+    flat = np.full_like(map_a, 0.5)
+    want = wm.encode(wm.blend(FLAT, [map_a, flat, map_c], mask_a, mask_b, [np.zeros(8), np.zeros(8), row],
+                              maps.strength))
+    assert np.abs(got - want).max() < 1e-4
+    on_map_1 = wm.encode(wm.blend(FLAT, [map_a], mask_a, mask_b, [row], maps.strength))
+    assert np.abs(got - on_map_1).max() > 0.01  # the third map's wrinkles, not the first's
+
+
 def test_twenty_expressions_times_eight_zones(render_small, tmp_path):
     """Every zone sums 20 driven expressions: no expression-length limit, exact sums,
     per-zone strength and response curve."""
