@@ -203,8 +203,8 @@ def setup(face, material=None):
         img.colorspace_settings.name = "Non-Color"  # every one of them is data
         if prop.startswith("mask"):
             img.alpha_mode = "CHANNEL_PACKED"  # the alpha is zone 4 / 8, not coverage
-            # no zone outside the 0-1 square: UVs in other tiles (a head's back, the
-            # mouth's inside) would otherwise wrap around onto the face's zones
+            # no zone outside the 0-1 square: UVs in other tiles (the ICT head's back of
+            # the head) would otherwise wrap around onto the face's zones
             node.extension = "CLIP"
         nt.links.new(uv.outputs["UV"], node.inputs["Vector"])
     normal = blend.outputs["Normal"]
