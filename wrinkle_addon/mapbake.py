@@ -40,7 +40,7 @@ SOURCES = (
     ("VERTEX_GROUPS", "Vertex Groups",
      "Each zone is a vertex group of the face: by default 'Wrinkle Zone 1' to 'Wrinkle Zone 8'"),
 )
-DEFAULT_SOFTNESS = 0.01  # zone border width on the skin, in the face's local units
+DEFAULT_SOFTNESS = 0.01  # zone border width on the skin, in world units
 DEFAULT_GROUPS = tuple(f"Wrinkle Zone {z + 1}" for z in range(wrinkle_maps.N_ZONES))
 
 
@@ -156,23 +156,21 @@ def bake_height(face, mode, muscles=None, surface=None):
     objects, by default all the face's muscles.  The face's Strength scales both.  Raises
     BakeError.
     """
-    fields, layer, _weights = bake_layers(face, mode, muscles, surface)
+    fields, layer, _zone_of_layer = bake_layers(face, mode, muscles, surface)
     return np.take_along_axis(fields, layer[:, None], axis=1)[:, 0]
 
 
-def bake_layers(face, mode, muscles=None, surface=None, softness=DEFAULT_SOFTNESS):
+def bake_layers(face, mode, muscles=None, surface=None):
     """The heights of :func:`bake_height` as fields (V, L) float32, the field each vertex
-    follows, ``layer`` (V,) int, and soft weights (V, L) of the fields (rows sum to 1).
+    follows, ``layer`` (V,) int, and the mask zone of each field (L,) int (-1: none).
 
     "MUSCLES": one field per mask zone that occurs (:func:`muscle_zones`; vertices outside
     every zone form one more), the summed wrinkles of that zone's muscles over the whole
     face; each vertex follows its zone's.  So the map agrees with the generated masks and
     one expression's zone does not show another muscle's wrinkles (the Corrugator's
-    furrows reach into the inner Frontalis' zone, where Surprise would show them).  The
-    weights are the layers softened over ``softness`` on the skin, as Generate Masks
-    softens the zones by default: the smooth slopes then pass from one zone's wrinkles
-    to the next over the masks' soft border, where cutting the heights at the zone
-    border put a streak of steep slopes along it.  "POSE": one field.
+    furrows reach into the inner Frontalis' zone, where Surprise would show them).
+    :func:`bake_wrinkle_map` joins the fields with :func:`layer_weights`.  "POSE": one
+    field.
     """
     if mode not in ("MUSCLES", "POSE"):
         raise BakeError(f"Unknown bake mode {mode!r}")
@@ -186,7 +184,7 @@ def bake_layers(face, mode, muscles=None, surface=None, softness=DEFAULT_SOFTNES
         skin = evaluated_skin(face, len(rest))
         contraction = np.array([m.wrinkle_muscle.contraction for m in muscles], np.float64)
         h = system.heights(plan, skin, contraction, strength)
-        return np.asarray(h, np.float32)[:, None], np.zeros(len(rest), np.int64), np.ones((len(rest), 1))
+        return np.asarray(h, np.float32)[:, None], np.zeros(len(rest), np.int64), np.array([-1])
     zone = _vertex_zone(face, surface, muscles)
     present, layer = np.unique(zone, return_inverse=True)
     fields = np.zeros((len(rest), len(present)), np.float32)
@@ -194,14 +192,28 @@ def bake_layers(face, mode, muscles=None, surface=None, softness=DEFAULT_SOFTNES
         keep = np.isin(present, _zones_of(ob))
         if keep.any():
             fields[:, keep] += system.formed_heights(plan, i, strength)[:, None]
-    layer = layer.ravel()
-    one_hot = (layer[:, None] == np.arange(len(present))).astype(np.float64)
-    # softened like the masks (a small zone keeps its full weight inside); where the
-    # softened layers sum to more than 1 they are divided by the sum, and as the diffusion
-    # keeps rows summing to 1 and each layer is only scaled up, that is everywhere
-    weights = uvbake.soften(one_hot, surface.edges, uvbake.diffusion_time(
-        softness, _median_edge(rest, surface.edges, zone >= 0)))
-    return fields, layer, weights
+    return fields, layer.ravel(), present
+
+
+def layer_weights(surface, layer, zone_of_layer, softness):
+    """Soft weights (V, L) of the fields of :func:`bake_layers`, rows summing to 1: each
+    vertex's layer softened over ``softness`` (face-local units) exactly as Generate Masks
+    softens the zones, so the smooth slopes pass from one zone's wrinkles to the next over
+    the masks' soft border (cutting the heights at the zone border put a streak of steep
+    slopes along it).  ``soften`` divides rows summing to more than 1 by their sum, and as
+    the diffusion keeps rows summing to 1 and only scales each layer up, that is every row.
+    """
+    if len(zone_of_layer) == 1:
+        return np.ones((len(layer), 1))
+    one_hot = (layer[:, None] == np.arange(len(zone_of_layer))).astype(np.float64)
+    return _soften(surface, one_hot, zone_of_layer[layer] >= 0, softness)
+
+
+def _soften(surface, memberships, inside, softness):
+    """``core.uvbake.soften`` of per-vertex memberships over ``softness`` (face-local
+    units), the diffusion measured by the median edge among the ``inside`` vertices."""
+    edge = _median_edge(surface.rest, surface.edges, inside)
+    return uvbake.soften(memberships, surface.edges, uvbake.diffusion_time(float(softness), edge))
 
 
 def _zones_of(ob):
@@ -243,14 +255,16 @@ def bake_wrinkle_map(face, resolution, mode, uv_map=None, muscles=None, progress
     step(0.0, "reading the mesh")
     surface = Surface(face, uv_map)
     step(0.05, "wrinkle heights")
-    fields, layer, weights = bake_layers(face, mode, muscles, surface)
+    fields, layer, zone_of_layer = bake_layers(face, mode, muscles, surface)
     try:  # in world lengths: a non-uniform object scale changes the slopes
         rest, fields = uvbake.to_world(surface.rest, surface.tris, fields, face.matrix_world.to_3x3())
     except ValueError as exc:
         raise BakeError(f'"{face.name}": {exc}; give it a scale to bake') from None
     step(0.3, f"rasterising {R} x {R}")
     uv, tris = surface.uv, surface.tris
-    if smooth:
+    if smooth:  # the masks' default border, converted to face-local units like the operator's
+        softness = DEFAULT_SOFTNESS / muscle_objects.face_scale(face)
+        weights = layer_weights(surface, layer, zone_of_layer, softness)
         pd = uvbake.pd_map(uv, rest[tris], fields[tris], R, smooth=True, verts=tris, padding=_padding(R),
                            weights=weights)
     else:  # per-pixel differences need one height: the zones' fields cut together
@@ -398,8 +412,7 @@ def generate_masks(face, resolution, source, softness, uv_map=None, group_names=
     else:
         raise BakeError(f"Unknown mask source {source!r}")
     step(0.4, "soft borders")
-    edge = _median_edge(surface.rest, surface.edges, zones.max(axis=1) > 0)
-    soft = uvbake.soften(zones, surface.edges, uvbake.diffusion_time(float(softness), edge))
+    soft = _soften(surface, zones, zones.max(axis=1) > 0, softness)
     step(0.7, f"rasterising {R} x {R}")
     a, b = uvbake.mask_images(surface.uv, soft[surface.tris], R, padding=max(2, R // 64))
     return a, b, notes
