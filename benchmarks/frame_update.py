@@ -119,9 +119,12 @@ import addon_utils  # noqa: E402
 
 addon_utils.enable("wrinkle_addon", default_set=True)
 
-from wrinkle_addon import meshio, muscle_objects, operators, pipeline, stage  # noqa: E402
 from wrinkle_addon.core import mesh as core_mesh  # noqa: E402
-from wrinkle_addon.core import system, zhang  # noqa: E402
+from wrinkle_addon.core.muscles import system, zhang  # noqa: E402
+from wrinkle_addon.glue import frame as pipeline  # noqa: E402
+from wrinkle_addon.glue import meshio, stage  # noqa: E402
+from wrinkle_addon.glue.muscles import landmarks as operators  # noqa: E402
+from wrinkle_addon.glue.muscles import objects as muscle_objects  # noqa: E402
 
 pc = time.perf_counter
 _F = np.float32
@@ -262,9 +265,9 @@ class Bench:
             "CORRUGATOR": ((1, 0.0), (11, 1.0), (31, 0.0), (41, 1.0)),
         }
         for m in self.muscles:
-            for f, v in keys.get(m.wrinkle_muscle.role, ()):
-                m.wrinkle_muscle.contraction = v
-                m.keyframe_insert("wrinkle_muscle.contraction", frame=f)
+            for f, v in keys.get(m.ewrinkles_muscle.role, ()):
+                m.ewrinkles_muscle.contraction = v
+                m.keyframe_insert("ewrinkles_muscle.contraction", frame=f)
         self.scene.frame_set(2)
         self.scene.frame_set(1)
         self.state = pipeline._cache[self.ob.session_uid]
@@ -273,8 +276,8 @@ class Bench:
             f"region_verts {len(plan.verts)} ({100 * len(plan.verts) / self.n:.1f} %), "
             f"rows {len(plan.row_vert)}, pairs {len(plan.pair_edge)}, edges {plan.edges.shape[1]}, "
             f"tris {plan.tris.shape[1]}, pull rows {len(plan.pull_vert)}")
-        if pipeline.status(self.ob):
-            log(f"  status: {pipeline.status(self.ob)}")
+        if pipeline.status_of(self.ob):
+            log(f"  status: {pipeline.status_of(self.ob)}")
         return plan
 
     def region_report(self, plan):
@@ -313,7 +316,7 @@ class Bench:
         handlers.remove(pipeline.on_frame_change_post)
         try:
             live = muscle_objects.live_muscles(ob)
-            strength = ob.wrinkles.strength
+            strength = ob.ewrinkles_face.strength
             st = self.state
             rd, cp, wr, base, uf, wb, rev = [], [], [], [], [], [], []
 
@@ -326,7 +329,7 @@ class Bench:
                 ev = ob.evaluated_get(dg).data
                 skin = meshio.read_vector_prefix(ev, stage.SKIN_ATTR, self.n, st.skin)
                 t2 = pc()
-                contraction = np.array([m.wrinkle_muscle.contraction for m in live], np.float64)
+                contraction = np.array([m.ewrinkles_muscle.contraction for m in live], np.float64)
                 t3 = pc()
                 out = system.evaluate(plan, skin, contraction, strength, out=st.out)
                 t4 = pc()
@@ -418,7 +421,7 @@ class Bench:
 
     def profile(self, plan, show):
         st = self.state
-        contraction = np.array([m.wrinkle_muscle.contraction
+        contraction = np.array([m.ewrinkles_muscle.contraction
                                 for m in muscle_objects.live_muscles(self.ob)], np.float64)
         self.scene.frame_set(self.frames[len(self.frames) // 2])
         ev = self.ob.evaluated_get(bpy.context.evaluated_depsgraph_get()).data

@@ -123,7 +123,7 @@ def main(argv):
     face, shots = scanned_head_maps.build()
     log(f"scene built in {time.perf_counter() - t:.1f} s ({len(face.data.vertices)} vertices)")
     scene = bpy.context.scene
-    maps = face.wrinkles.maps
+    maps = face.ewrinkles_face.maps
 
     # bake and masks, timed through the operators an artist uses
     t = time.perf_counter()
@@ -136,7 +136,7 @@ def main(argv):
     log(f"masks: {masks_s:.2f} s")
 
     if args.byte_map:
-        from wrinkle_addon import images
+        from wrinkle_addon.glue import images
 
         maps.map_a = images.store("Wrinkle PD 8-bit", images.read(maps.map_a), float_buffer=False)
     # the same base normal map in both variants

@@ -29,8 +29,8 @@ def build():
     bpy.ops.wrinkle.add_muscle(kind="SHEET", use_points=True, points=flat, name="Frontalis")
     muscle = bpy.context.view_layer.objects.active
     for frame, value in ((1, 0.0), (20, 1.0)):
-        muscle.wrinkle_muscle.contraction = value
-        muscle.keyframe_insert("wrinkle_muscle.contraction", frame=frame)
+        muscle.ewrinkles_muscle.contraction = value
+        muscle.keyframe_insert("ewrinkles_muscle.contraction", frame=frame)
     rigging.activate(face)
     bpy.ops.wrinkle.refine()
     scene.frame_start, scene.frame_end = 1, 20

@@ -36,7 +36,7 @@ def available():
 
 def toggle(face, on):
     """The demo's without / with switch: the wrinkle maps' overall strength."""
-    face.wrinkles.maps.strength = 1.0 if on else 0.0
+    face.ewrinkles_face.maps.strength = 1.0 if on else 0.0
 
 
 def build(view="front"):

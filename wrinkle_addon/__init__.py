@@ -1,19 +1,25 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Expression Wrinkles: animated, expressive wrinkles for face meshes.
 
-Registration is explicit (a ``classes`` tuple per module); unregister removes
-every handler and property that register added.  The Blender modules are
-imported inside register() so that ``wrinkle_addon.core`` (pure NumPy) can be
-imported and tested without Blender.
+The layers and their rules are in ``docs/architecture.md``.  Registration is explicit (a
+``classes`` tuple per module) and in layer order; unregister reverses it and removes every
+handler and property that register added.  The Blender modules are imported inside
+register() so that ``wrinkle_addon.core`` (pure NumPy) can be imported and tested without
+Blender.
 """
 
 _MODULES = ()
 
 
 def _modules():
-    from . import convert_ops, draw, map_ops, mapbake, operators, pipeline, props, ui
+    from . import props, sources
+    from .glue import frame
+    from .ops import convert, face, mapbake, maps, muscles
+    from .ui import draw, panels
+    from .ui import maps as maps_ui
+    from .ui import muscles as muscles_ui
 
-    return (props, pipeline, operators, map_ops, convert_ops, mapbake, ui, draw)
+    return (props, frame, face, muscles, maps, convert, mapbake, muscles_ui, maps_ui, panels, draw, sources)
 
 
 def register():

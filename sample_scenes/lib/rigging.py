@@ -3,7 +3,7 @@
 import bpy
 import numpy as np
 
-from wrinkle_addon import operators
+from wrinkle_addon.glue.muscles import landmarks as operators
 
 LANDMARK_KEYS = ("hairline_center", "glabella", "brow_outer_L", "eye_L", "nose_tip", "mouth_corner_L",
                  "chin", "cheekbone_L")
@@ -23,7 +23,7 @@ def wrinkle_face(face, landmarks, wrinkles_only=False, refine=True):
     local = {k: np.asarray(landmarks[k], float) for k in LANDMARK_KEYS}
     muscles = operators.build_muscle_set(bpy.context, face, local)
     for m in muscles:
-        m.wrinkle_muscle.wrinkles_only = wrinkles_only
+        m.ewrinkles_muscle.wrinkles_only = wrinkles_only
     activate(face)
     if refine:
         bpy.ops.wrinkle.refine()

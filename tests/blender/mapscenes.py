@@ -3,7 +3,8 @@
 import bpy
 import numpy as np
 
-from wrinkle_addon import mapgroup, wrinklemaps
+from wrinkle_addon.glue.maps import material as wrinklemaps
+from wrinkle_addon.glue.maps import nodegroups as mapgroup
 
 
 def data_image(name, pixels, closest=True):
@@ -112,7 +113,7 @@ def random_normal_map(rng, size, max_slope=0.35):
 
 def skin_plane(size, mask_a, mask_b, map_a, base=None, keys=(), cuts=0):
     """The plane with a Principled "Skin" material, shape keys ``keys`` (at 0) and the
-    wrinkle-map images set on ``plane.wrinkles.maps`` (not wired yet)."""
+    wrinkle-map images set on ``plane.ewrinkles_face.maps`` (not wired yet)."""
     plane = plane_scene(size, cuts)
     mat = bpy.data.materials.new("Skin")
     mat.use_nodes = True
@@ -122,7 +123,7 @@ def skin_plane(size, mask_a, mask_b, map_a, base=None, keys=(), cuts=0):
         for k in keys:
             plane.shape_key_add(name=k).value = 0.0
     bpy.context.view_layer.objects.active = plane
-    maps = plane.wrinkles.maps
+    maps = plane.ewrinkles_face.maps
     maps.mask_a = data_image("Mask A", mask_a)
     maps.mask_b = data_image("Mask B", mask_b)
     maps.map_a = data_image("Wrinkle PD", map_a)

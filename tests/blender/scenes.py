@@ -45,7 +45,7 @@ def add_sheet(face, **params):
     bpy.ops.wrinkle.add_muscle(kind="SHEET", use_points=True, points=sheet_points(), name="Frontalis")
     ob = bpy.context.view_layer.objects.active
     for k, v in params.items():
-        setattr(ob.wrinkle_muscle, k, v)
+        setattr(ob.ewrinkles_muscle, k, v)
     bpy.context.view_layer.objects.active = face
     return ob
 
@@ -139,8 +139,8 @@ def animated_render_scene(last_frame):
     face, muscle = wrinkled_face()
     animate_shape_key(face, [(1, 0.0), (last_frame, 1.0)])
     for frame, value in ((1, 0.0), (last_frame, 1.0)):
-        muscle.wrinkle_muscle.contraction = value
-        muscle.keyframe_insert("wrinkle_muscle.contraction", frame=frame)
+        muscle.ewrinkles_muscle.contraction = value
+        muscle.keyframe_insert("ewrinkles_muscle.contraction", frame=frame)
     add_camera_and_light(scene)
     setup_cycles(scene)
     scene.frame_start, scene.frame_end = 1, last_frame

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from tests.blender import scenes
-from wrinkle_addon import pipeline
+from wrinkle_addon.glue import frame as pipeline
 
 
 def _frames(face, frames=(1, 2)):
@@ -13,7 +13,7 @@ def _frames(face, frames=(1, 2)):
         bpy.context.scene.frame_set(f)
     pos = scenes.evaluated_positions(face)
     assert np.isfinite(pos).all()
-    assert "Internal error" not in pipeline.status(face)
+    assert "Internal error" not in pipeline.status_of(face)
     return pos
 
 
@@ -25,7 +25,7 @@ def test_mesh_without_faces_is_refused():
     bpy.context.view_layer.objects.active = ob
     with pytest.raises(RuntimeError, match="has no faces"):
         bpy.ops.wrinkle.enable()
-    assert not ob.modifiers and not ob.wrinkles.enabled
+    assert not ob.modifiers and not ob.ewrinkles_face.enabled
 
 
 def test_non_mesh_object_is_refused():
@@ -79,10 +79,10 @@ def test_muscle_attachment_equal_to_insertion():
     bpy.context.view_layer.objects.active = face
     bpy.ops.wrinkle.add_muscle(kind="LINEAR", use_points=True, points=(0, 0, 0.04, 0.04, 0, 0.04) + (0,) * 6)
     muscle = bpy.context.view_layer.objects.active
-    muscle.wrinkle_muscle.contraction = 1.0
+    muscle.ewrinkles_muscle.contraction = 1.0
     muscle.data.vertices[1].co = muscle.data.vertices[0].co  # edited onto its attachment
     _frames(face)
-    assert "attachment equals its insertion" in pipeline.status(face)
+    assert "attachment equals its insertion" in pipeline.status_of(face)
 
 
 @pytest.mark.parametrize("prop,value,message", [
@@ -90,9 +90,9 @@ def test_muscle_attachment_equal_to_insertion():
 ])
 def test_sheet_zero_sizes(prop, value, message):
     face, muscle = scenes.wrinkled_face(contraction=1.0)
-    setattr(muscle.wrinkle_muscle, prop, value)
+    setattr(muscle.ewrinkles_muscle, prop, value)
     _frames(face)
-    assert message in pipeline.status(face)
+    assert message in pipeline.status_of(face)
     assert np.abs(scenes.offsets(face)).max() == 0
 
 
@@ -101,10 +101,10 @@ def test_linear_zero_radius():
     bpy.ops.wrinkle.enable()
     bpy.ops.wrinkle.add_muscle(kind="LINEAR", use_points=True, points=(0, 0, 0.04, 0.04, 0, 0.04) + (0,) * 6)
     muscle = bpy.context.view_layer.objects.active
-    muscle.wrinkle_muscle.contraction = 1.0
-    muscle.wrinkle_muscle.radius = 0.0
+    muscle.ewrinkles_muscle.contraction = 1.0
+    muscle.ewrinkles_muscle.radius = 0.0
     _frames(face)
-    assert "R is 0" in pipeline.status(face)
+    assert "R is 0" in pipeline.status_of(face)
 
 
 @pytest.mark.parametrize("nw", [0, 1000])
@@ -121,9 +121,9 @@ def test_extreme_wrinkle_counts(nw):
 def test_nan_typed_into_a_field(prop):
     face, muscle = scenes.wrinkled_face(contraction=1.0)
     face.data.shape_keys.key_blocks["BrowsUp"].value = 1.0
-    setattr(muscle.wrinkle_muscle, prop, float("nan"))
+    setattr(muscle.ewrinkles_muscle, prop, float("nan"))
     _frames(face)
-    face.wrinkles.strength = float("nan")
+    face.ewrinkles_face.strength = float("nan")
     _frames(face, (3,))
     assert np.isfinite(scenes.offsets(face)).all()
 
@@ -140,28 +140,28 @@ def test_linked_read_only_mesh_is_refused(tmp_path):
     bpy.context.view_layer.objects.active = ob
     with pytest.raises(RuntimeError, match="linked"):
         bpy.ops.wrinkle.enable()
-    assert not ob.wrinkles.enabled
+    assert not ob.ewrinkles_face.enabled
 
 
 def test_muscle_deleted_while_referenced_shows_in_list():
     face, muscle = scenes.wrinkled_face(contraction=1.0)
     bpy.data.objects.remove(muscle)
     _frames(face)
-    assert len(face.wrinkles.muscles) == 1 and face.wrinkles.muscles[0].object is None
+    assert len(face.ewrinkles_face.muscles) == 1 and face.ewrinkles_face.muscles[0].object is None
     bpy.context.view_layer.objects.active = face
     bpy.ops.wrinkle.remove_muscle()
-    assert len(face.wrinkles.muscles) == 0
+    assert len(face.ewrinkles_face.muscles) == 0
 
 
 def test_handler_never_raises_on_broken_state():
     face, muscle = scenes.wrinkled_face(contraction=1.0)
     face.modifiers.remove(face.modifiers[0])  # the user deleted our modifier
     _frames(face)
-    assert "modifier is missing" in pipeline.status(face)
+    assert "modifier is missing" in pipeline.status_of(face)
     face.data.attributes.remove(face.data.attributes["wrinkle_offset"])
     bpy.ops.wrinkle.enable()
     _frames(face, (4,))
-    assert pipeline.status(face) == ""
+    assert pipeline.status_of(face) == ""
 
 
 def test_linked_duplicates_sharing_a_mesh_get_a_message():
@@ -171,4 +171,4 @@ def test_linked_duplicates_sharing_a_mesh_get_a_message():
     bpy.context.view_layer.objects.active = twin
     bpy.ops.wrinkle.enable()
     _frames(face)
-    assert "shares its mesh" in pipeline.status(face) and "shares its mesh" in pipeline.status(twin)
+    assert "shares its mesh" in pipeline.status_of(face) and "shares its mesh" in pipeline.status_of(twin)

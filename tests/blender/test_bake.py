@@ -51,7 +51,7 @@ def test_bake_renders_without_the_addon(tmp_path):
     bpy.context.view_layer.objects.active = face
     bpy.ops.wrinkle.bake()
     assert (tmp_path / "wrinkle_bake" / "Face.abc").exists()
-    assert face.hide_render and face.wrinkles.bake_object.name == "Face Baked"
+    assert face.hide_render and face.ewrinkles_face.bake_object.name == "Face Baked"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
 
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(tmp_path / "farm_user"))
@@ -76,7 +76,7 @@ def test_free_bake_restores_live_rendering(tmp_path):
     bpy.context.view_layer.objects.active = face
     bpy.ops.wrinkle.bake(frame_start=1, frame_end=2)
     bpy.ops.wrinkle.free_bake()
-    assert not face.hide_render and face.wrinkles.bake_object is None
+    assert not face.hide_render and face.ewrinkles_face.bake_object is None
     assert "Face Baked" not in bpy.data.objects
 
 

@@ -17,8 +17,9 @@ import bpy
 import numpy as np
 import pytest
 
-from wrinkle_addon import convert_ops, images
-from wrinkle_addon.core import wrinkle_maps as wm
+from wrinkle_addon.core.maps import jimenez as wm
+from wrinkle_addon.glue import images
+from wrinkle_addon.ops import convert as convert_ops
 
 SIZE = 32
 

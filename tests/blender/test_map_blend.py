@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from tests.blender import mapscenes
-from wrinkle_addon import mapgroup
-from wrinkle_addon.core import wrinkle_maps as wm
+from wrinkle_addon.core.maps import jimenez as wm
+from wrinkle_addon.glue.maps import nodegroups as mapgroup
 
 SIZE = 16
 

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from tests.blender import mapscenes
-from wrinkle_addon import mapgroup, wrinklemaps
-from wrinkle_addon.core import wrinkle_maps as wm
+from wrinkle_addon.core.maps import jimenez as wm
+from wrinkle_addon.glue.maps import material as wrinklemaps
+from wrinkle_addon.glue.maps import nodegroups as mapgroup
 
 SIZE = 8
 FLAT = np.tile(np.array([0.5, 0.5, 1.0], np.float32), (SIZE, SIZE, 1))
@@ -18,7 +19,7 @@ def _pd_map(rng):
 
 
 def _expected(face, values, map_a, mask_a, mask_b, base=FLAT, tension=0.0):
-    maps = face.wrinkles.maps
+    maps = face.ewrinkles_face.maps
     sums = wm.expression_sums(values, wrinklemaps.table(maps)) + tension
     w = wm.zone_response(sums, np.array(maps.zone_strength), np.array(maps.zone_power))
     return wm.encode(wm.blend(base, [map_a, np.full_like(map_a, 0.5)], mask_a, mask_b,
@@ -47,10 +48,10 @@ def test_surprise_plus_anger_smooths_the_forehead(render_small, tmp_path):
     face, map_a, mask_a, mask_b = _forehead_face(rng)
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
     assert bpy.ops.wrinkle.load_map_preset(preset="TABLE_1_1") == {"FINISHED"}
-    names = [ex.name for ex in face.wrinkles.maps.expressions]
-    assert face.wrinkles.maps.expressions["Surprise"].shape_key == "browInnerUp_L"
-    assert face.wrinkles.maps.expressions["Anger"].shape_key == "browDown_L"
-    mapscenes.show_blend_output(face.wrinkles.maps.material)
+    names = [ex.name for ex in face.ewrinkles_face.maps.expressions]
+    assert face.ewrinkles_face.maps.expressions["Surprise"].shape_key == "browInnerUp_L"
+    assert face.ewrinkles_face.maps.expressions["Anger"].shape_key == "browDown_L"
+    mapscenes.show_blend_output(face.ewrinkles_face.maps.material)
     keys = face.data.shape_keys.key_blocks
     flat = wm.encode(wm.normalize(wm.decode(FLAT)))
 
@@ -78,7 +79,7 @@ def test_uvs_outside_the_0_1_square_get_no_wrinkles(render_small, tmp_path):
     face, _map_a, _mask_a, _mask_b = _forehead_face(rng)
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
     assert bpy.ops.wrinkle.load_map_preset(preset="TABLE_1_1") == {"FINISHED"}
-    mapscenes.show_blend_output(face.wrinkles.maps.material)
+    mapscenes.show_blend_output(face.ewrinkles_face.maps.material)
     face.data.shape_keys.key_blocks["browInnerUp_L"].value = 1.0
     flat = wm.encode(wm.normalize(wm.decode(FLAT)))
     inside = _render(render_small, tmp_path, "in.exr")
@@ -106,18 +107,18 @@ def test_a_wrinkle_uv_map_other_than_the_render_one_gets_its_own_tangents(render
     turned = me.uv_layers.new(name="Turned")  # the same layout turned by 90 degrees
     turned.uv.foreach_set("vector", np.stack([1.0 - uv[:, 1], uv[:, 0]], 1).ravel())
     turned.active_render = True
-    face.wrinkles.maps.uv_map = own
+    face.ewrinkles_face.maps.uv_map = own
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
     assert bpy.ops.wrinkle.load_map_preset(preset="TABLE_1_1") == {"FINISHED"}
-    mat = face.wrinkles.maps.material
+    mat = face.ewrinkles_face.maps.material
     assert mat.node_tree.nodes[wrinklemaps.NORMAL_NODE].uv_map == own
     mapscenes.show_blend_output(mat)
     me.shape_keys.key_blocks["browInnerUp_L"].value = 1.0
     got = _render(render_small, tmp_path)
-    values = np.array([float(ex.name == "Surprise") for ex in face.wrinkles.maps.expressions])
+    values = np.array([float(ex.name == "Surprise") for ex in face.ewrinkles_face.maps.expressions])
     assert np.abs(got - _expected(face, values, map_a, mask_a, mask_b)).max() < 1e-4
     # back on the render UV map, the extra node goes
-    face.wrinkles.maps.uv_map = ""
+    face.ewrinkles_face.maps.uv_map = ""
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
     assert wrinklemaps.NORMAL_NODE not in mat.node_tree.nodes
 
@@ -128,7 +129,7 @@ def test_a_third_map_from_its_panel_slot(render_small, tmp_path):
     rng = np.random.default_rng(4)
     face, map_a, mask_a, mask_b = _forehead_face(rng)
     map_c = _pd_map(rng)
-    maps = face.wrinkles.maps
+    maps = face.ewrinkles_face.maps
     maps.map_c = mapscenes.data_image("Third", map_c)
     assert wrinklemaps.n_maps(maps) == 3
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
@@ -158,7 +159,7 @@ def test_twenty_expressions_times_eight_zones(render_small, tmp_path):
     mask_b = rng.uniform(0, 0.5, (SIZE, SIZE, 4)).astype(np.float32)
     map_a = _pd_map(rng)
     face = mapscenes.skin_plane(SIZE, mask_a, mask_b, map_a, keys=keys)
-    maps = face.wrinkles.maps
+    maps = face.ewrinkles_face.maps
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
     table = rng.uniform(-0.25, 0.25, (20, 8)).round(3)
     for i, k in enumerate(keys):
@@ -198,8 +199,8 @@ def test_drivers_render_in_a_file_reopened_without_python_or_addon(render_small,
     face, map_a, mask_a, mask_b = _forehead_face(rng)
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
     assert bpy.ops.wrinkle.load_map_preset(preset="TABLE_1_1") == {"FINISHED"}
-    mapscenes.show_blend_output(face.wrinkles.maps.material)
-    names = [ex.name for ex in face.wrinkles.maps.expressions]
+    mapscenes.show_blend_output(face.ewrinkles_face.maps.material)
+    names = [ex.name for ex in face.ewrinkles_face.maps.expressions]
     key = face.data.shape_keys.key_blocks["browInnerUp_L"]
     for frame, v in ((1, 0.0), (5, 1.0)):
         key.value = v
@@ -228,7 +229,7 @@ def test_drivers_render_in_a_file_reopened_without_python_or_addon(render_small,
 def test_negative_and_large_weights_are_clamped_per_zone(render_small, tmp_path):
     rng = np.random.default_rng(4)
     face, map_a, mask_a, mask_b = _forehead_face(rng, keys=())
-    maps = face.wrinkles.maps
+    maps = face.ewrinkles_face.maps
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
     assert bpy.ops.wrinkle.add_map_expression() == {"FINISHED"}
     ex = maps.expressions[0]
@@ -253,7 +254,7 @@ def test_remove_restores_the_previous_normal_input():
     nt.links.new(tex.outputs["Color"], nmap.inputs["Color"])
     nt.links.new(nmap.outputs["Normal"], bsdf.inputs["Normal"])
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
-    assert face.wrinkles.maps.base_image.name == "Existing Normal"  # picked up as the base
+    assert face.ewrinkles_face.maps.base_image.name == "Existing Normal"  # picked up as the base
     assert bsdf.inputs["Normal"].links[0].from_node.name == "Wrinkle Map Blend"
     assert bpy.ops.wrinkle.remove_wrinkle_maps() == {"FINISHED"}
     assert bsdf.inputs["Normal"].links[0].from_node == nmap
@@ -265,7 +266,7 @@ def test_remove_restores_the_previous_normal_input():
 def test_bad_input_is_refused_and_leaves_the_material_unchanged(case, tmp_path):
     rng = np.random.default_rng(6)
     face, *_ = _forehead_face(rng, keys=())
-    maps = face.wrinkles.maps
+    maps = face.ewrinkles_face.maps
     mat = face.active_material
     if case == "no_uv":
         face.data.uv_layers.remove(face.data.uv_layers[0])
@@ -326,7 +327,7 @@ def test_tension_mode_follows_the_measured_compression_in_renders(render_small, 
     for frame, v in ((1, 0.0), (3, 1.0)):
         key.value = v
         key.keyframe_insert("value", frame=frame)
-    maps = face.wrinkles.maps
+    maps = face.ewrinkles_face.maps
     maps.weight_mode, maps.tension_gain = "TENSION", 2.0
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
     mapscenes.show_blend_output(maps.material)
@@ -362,12 +363,12 @@ def test_muscle_driven_weights_bake_for_a_farm_without_the_addon(render_small, t
     face, map_a, mask_a, mask_b = _forehead_face(rng, keys=())
     muscle = bpy.data.objects.new("Frontalis", bpy.data.meshes.new("Frontalis"))
     bpy.context.scene.collection.objects.link(muscle)
-    muscle.wrinkle_muscle.is_muscle = True
+    muscle.ewrinkles_muscle.is_muscle = True
     for frame, c in ((1, 0.0), (4, 1.0)):
-        muscle.wrinkle_muscle.contraction = c
-        muscle.keyframe_insert("wrinkle_muscle.contraction", frame=frame)
+        muscle.ewrinkles_muscle.contraction = c
+        muscle.keyframe_insert("ewrinkles_muscle.contraction", frame=frame)
     bpy.context.view_layer.objects.active = face
-    maps = face.wrinkles.maps
+    maps = face.ewrinkles_face.maps
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
     assert bpy.ops.wrinkle.add_map_expression() == {"FINISHED"}
     ex = maps.expressions[0]
@@ -377,7 +378,7 @@ def test_muscle_driven_weights_bake_for_a_farm_without_the_addon(render_small, t
     scene.frame_start, scene.frame_end = 1, 4
     scene.frame_set(3)
     live3 = _render(render_small, tmp_path, "live3.exr")
-    c3 = muscle.wrinkle_muscle.contraction  # keyed 0 -> 1 over frames 1-4 (Bezier ease)
+    c3 = muscle.ewrinkles_muscle.contraction  # keyed 0 -> 1 over frames 1-4 (Bezier ease)
     assert 0.2 < c3 < 0.95
     assert np.abs(live3 - _expected(face, [c3], map_a, mask_a, mask_b)).max() < 1e-4
     assert bpy.ops.wrinkle.bake() == {"FINISHED"}
@@ -397,4 +398,4 @@ def test_muscle_driven_weights_bake_for_a_farm_without_the_addon(render_small, t
     face = bpy.data.objects[name]
     bpy.context.view_layer.objects.active = face
     assert bpy.ops.wrinkle.free_bake() == {"FINISHED"}
-    assert len(face.wrinkles.maps.weights_group.animation_data.drivers) == 1
+    assert len(face.ewrinkles_face.maps.weights_group.animation_data.drivers) == 1

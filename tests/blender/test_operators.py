@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from tests.blender import scenes
-from wrinkle_addon import muscle_objects, pipeline
-from wrinkle_addon.core import presets
+from wrinkle_addon.core.muscles import presets
+from wrinkle_addon.glue import frame as pipeline
+from wrinkle_addon.glue.muscles import objects as muscle_objects
 
 
 def test_refine_keeps_uvs_shape_keys_vertex_groups_and_materials():
@@ -33,13 +34,13 @@ def test_refine_keeps_uvs_shape_keys_vertex_groups_and_materials():
     keys["Basis"].points.foreach_get("co", basis)
     assert np.abs(brows - basis).max() > 0.005  # the new vertices carry the shape key too
     # every half cycle now spans at least 4 edges inside the wrinkling region
-    from wrinkle_addon import meshio
-    from wrinkle_addon.core import system
+    from wrinkle_addon.core.muscles import system
+    from wrinkle_addon.glue import meshio
 
     core = [muscle_objects.to_core(muscle, face)]
     assert len(system.refine_edges(meshio.read_vectors(me, "position"), meshio.read_edges(me), core, 4)) == 0
     bpy.context.scene.frame_set(2)
-    assert pipeline.status(face) == ""
+    assert pipeline.status_of(face) == ""
 
 
 def test_muscle_set_and_expressions():
@@ -51,7 +52,7 @@ def test_muscle_set_and_expressions():
     bpy.ops.wrinkle.add_muscle_set()
     muscles = muscle_objects.live_muscles(face)
     assert len(muscles) == 20
-    roles = {(m.wrinkle_muscle.role, m.wrinkle_muscle.side) for m in muscles}
+    roles = {(m.ewrinkles_muscle.role, m.ewrinkles_muscle.side) for m in muscles}
     assert roles == {(r, s) for r, _n, _k in presets.MUSCLES for s in "LR"}
     with pytest.raises(RuntimeError, match="already has"):
         bpy.ops.wrinkle.add_muscle_set()
@@ -63,7 +64,7 @@ def test_muscle_set_and_expressions():
         scene.frame_set(frame)
         table = presets.EXPRESSIONS[expression]
         for m in muscles:
-            assert m.wrinkle_muscle.contraction == pytest.approx(table.get(m.wrinkle_muscle.role, 0.0))
+            assert m.ewrinkles_muscle.contraction == pytest.approx(table.get(m.ewrinkles_muscle.role, 0.0))
 
 
 def test_mirrored_pairs_are_symmetric():
@@ -82,9 +83,9 @@ def test_add_muscle_at_cursor_gets_visible_defaults():
     bpy.context.scene.cursor.location = (0.0, 0.0, 0.06)
     bpy.ops.wrinkle.add_muscle(kind="LINEAR")
     muscle = bpy.context.view_layer.objects.active
-    assert muscle.wrinkle_muscle.is_muscle and muscle.parent == face
-    assert muscle.wrinkle_muscle.k0 > 0 and muscle.wrinkle_muscle.radius > 0
-    muscle.wrinkle_muscle.contraction = 1.0
+    assert muscle.ewrinkles_muscle.is_muscle and muscle.parent == face
+    assert muscle.ewrinkles_muscle.k0 > 0 and muscle.ewrinkles_muscle.radius > 0
+    muscle.ewrinkles_muscle.contraction = 1.0
     bpy.context.scene.frame_set(2)
     off = scenes.offsets(face)
     assert np.abs(off).max() > 1e-3  # the first try gives a visible result
@@ -100,7 +101,7 @@ class _Picker:
     """Stands in for the running operator: the modal state machine without a window."""
 
     def __init__(self, kind, hits):
-        from wrinkle_addon.operators import WRINKLE_OT_add_muscle
+        from wrinkle_addon.ops.muscles import WRINKLE_OT_add_muscle
 
         self._cls = WRINKLE_OT_add_muscle
         self.kind, self._hits = kind, list(hits)

@@ -39,9 +39,9 @@ def _heights(face):
 def test_brow_raise_wrinkles_the_forehead_from_compression_alone(ict_face):
     face, lm = ict_face
     scene = bpy.context.scene
-    muscles = [r.object for r in face.wrinkles.muscles]
-    assert all(m.wrinkle_muscle.wrinkles_only for m in muscles)
-    assert all(m.wrinkle_muscle.contraction == 0.0 for m in muscles)
+    muscles = [r.object for r in face.ewrinkles_face.muscles]
+    assert all(m.ewrinkles_muscle.wrinkles_only for m in muscles)
+    assert all(m.ewrinkles_muscle.contraction == 0.0 for m in muscles)
     scene.frame_set(1)
     assert np.abs(scenes.offsets(face)).max() == 0.0  # neutral: nothing compressed
     keys = face.data.shape_keys.key_blocks

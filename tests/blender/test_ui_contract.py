@@ -4,7 +4,13 @@ import bpy
 import numpy as np
 
 from tests.blender import scenes
-from wrinkle_addon import convert_ops, draw, map_ops, mapbake, operators, props, ui
+from wrinkle_addon import props
+from wrinkle_addon.ops import convert as convert_ops
+from wrinkle_addon.ops import mapbake
+from wrinkle_addon.ops import maps as map_ops
+from wrinkle_addon.ops import muscles as operators
+from wrinkle_addon.ui import draw
+from wrinkle_addon.ui import maps as maps_ui
 
 OPERATORS = [c for mod in (operators, map_ops, convert_ops, mapbake) for c in mod.classes
              if issubclass(c, bpy.types.Operator)]
@@ -44,7 +50,7 @@ def test_operator_undo_restores_the_scene():
     assert "Frontalis" not in bpy.data.objects
     bpy.ops.ed.undo()
     face = bpy.data.objects["Face"]
-    assert not face.modifiers and not face.wrinkles.enabled
+    assert not face.modifiers and not face.ewrinkles_face.enabled
 
 
 def test_overlay_segments_follow_the_muscles():
@@ -57,7 +63,7 @@ def test_overlay_segments_follow_the_muscles():
     bpy.context.view_layer.update()
     moved = draw._segments(bpy.context)
     assert np.allclose(moved["aoi"][:, 0].mean() - segs["aoi"][:, 0].mean(), 0.5, atol=1e-4)
-    muscle.wrinkle_muscle.show_region = False
+    muscle.ewrinkles_muscle.show_region = False
     assert not len(draw._segments(bpy.context)["aoi"])
 
 
@@ -93,12 +99,11 @@ class _Layout:
 
 def test_wrinkle_maps_panel_draws_every_control():
     face = scenes.make_face()
-    face.wrinkles.maps.expressions.add()
+    face.ewrinkles_face.maps.expressions.add()
     for source in ("SHAPE_KEY", "MUSCLE", "PROPERTY", "MANUAL"):
-        face.wrinkles.maps.expressions[0].source = source
+        face.ewrinkles_face.maps.expressions[0].source = source
         layout = _Layout()
-        panel = type("P", (), {"layout": layout})()
-        ui.VIEW3D_PT_wrinkle_maps.draw(panel, bpy.context)
+        maps_ui.draw(layout, bpy.context, face)
         assert {"wrinkle.setup_wrinkle_maps", "wrinkle.bake_wrinkle_map", "wrinkle.generate_masks",
                 "wrinkle.convert_to_derivative", "wrinkle.make_difference_map",
                 "weights", "zone_power", "mask_b"} <= set(layout.drawn)

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from tests.core.meshes import grid, squash_vertical
-from wrinkle_addon.core import mesh, system
-from wrinkle_addon.core.muscles import LINEAR, SHEET, Muscle, muscle_field, radial_falloff
+from wrinkle_addon.core import mesh
+from wrinkle_addon.core.muscles import system
+from wrinkle_addon.core.muscles.waters import LINEAR, SHEET, Muscle, muscle_field, radial_falloff
 
 
 def sheet(**kw):

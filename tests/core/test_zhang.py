@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from wrinkle_addon.core import zhang
+from wrinkle_addon.core.muscles import zhang
 
 
 @pytest.mark.parametrize("alpha", [-1.0, -0.5, 0.0, 0.5, 1.0, 2.0, 3.5])

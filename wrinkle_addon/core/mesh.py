@@ -4,6 +4,7 @@
 import numpy as np
 
 _EPS = 1e-20
+_EPS_LEN = 1e-12
 
 
 def fan_triangles(corner_verts, face_starts, face_sizes):
@@ -133,3 +134,11 @@ def normals_at(p, tris, corner_bins):
         return np.zeros((3, corner_bins.size), dtype=p.dtype)
     fn = triangle_normals(p, tris)  # each corner of a triangle gets its normal:
     return _normalize(np.stack([corner_bins.sum(np.tile(c, 3)) for c in fn]))
+
+
+def edge_shrinkage(rest_length, length):
+    """Edge shrinkage (Zhang et al. 2005, eq. 9): ``tau = (L - |xi - xj|) / L``; zero where
+    the rest length is degenerate."""
+    rest_length = np.asarray(rest_length)
+    ok = rest_length > _EPS_LEN
+    return np.where(ok, (rest_length - length) / np.where(ok, rest_length, 1.0), 0.0)

@@ -1,0 +1,162 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Zhang 2005 Fig. 1 muscle layout from a few facial landmarks, and the §3 expressions.
+
+All coordinates are the face's local space with the face looking toward -Y and
+Z up (Blender's front view); the character's left is +X.  The layout only
+fixes each muscle's end points in the (x, z) plane of the face; the caller
+projects them onto the skin (a ray cast from the front) so the muscles sit on
+the surface of any head.
+
+Landmarks, all of the character's left side except the midline ones:
+``hairline_center, glabella, brow_outer_L, eye_L, nose_tip, mouth_corner_L,
+chin, cheekbone_L``.  The right side is mirrored about the plane through the
+glabella.
+"""
+
+import numpy as np
+
+LANDMARKS = (
+    ("hairline_center", "Hairline", "Middle of the hairline, where the forehead ends"),
+    ("glabella", "Glabella", "Between the eyebrows, on the midline"),
+    ("brow_outer_L", "Brow Outer (left)", "Outer end of the character's left eyebrow"),
+    ("eye_L", "Eye (left)", "Centre of the character's left eye"),
+    ("nose_tip", "Nose Tip", "Tip of the nose"),
+    ("mouth_corner_L", "Mouth Corner (left)", "Corner of the mouth on the character's left"),
+    ("chin", "Chin", "Front of the chin, on the midline"),
+    ("cheekbone_L", "Cheekbone (left)", "Most prominent point of the left cheekbone"),
+)
+
+# (role, display name, type)
+MUSCLES = (
+    ("FRONTALIS_INNER", "Frontalis Inner", "SHEET"),
+    ("FRONTALIS_MAJOR", "Frontalis Major", "SHEET"),
+    ("FRONTALIS_OUTER", "Frontalis Outer", "SHEET"),
+    ("CORRUGATOR", "Corrugator Supercilii", "LINEAR"),
+    ("NASALIS", "Nasalis", "LINEAR"),
+    ("ZYGOMATICUS_MINOR", "Zygomaticus Minor", "LINEAR"),
+    ("ZYGOMATICUS_MAJOR", "Zygomaticus Major", "LINEAR"),
+    ("RISORIUS", "Risorius", "LINEAR"),
+    ("DEPRESSOR_ANGULI", "Depressor Anguli Oris", "LINEAR"),
+    ("MENTALIS", "Mentalis", "LINEAR"),
+)
+
+# Zhang §3: which muscles each expression contracts, and how much.
+EXPRESSIONS = {
+    "NEUTRAL": {},
+    "SURPRISE": {"FRONTALIS_INNER": 1.0, "FRONTALIS_MAJOR": 1.0, "FRONTALIS_OUTER": 0.8},
+    "FROWN": {"CORRUGATOR": 1.0},
+    "FEAR": {"FRONTALIS_INNER": 1.0, "CORRUGATOR": 0.8},
+}
+# The one list of those expressions as the interface shows them: (key, label, tooltip).
+EXPRESSION_ITEMS = (
+    ("SURPRISE", "Surprise", "Frontalis inner, major and outer contract: raised brows, forehead wrinkles"),
+    ("FROWN", "Frowning", "Corrugators contract: lowered brows, vertical wrinkles between them"),
+    ("FEAR", "Fear", "Frontalis inner and corrugators contract"),
+    ("NEUTRAL", "Neutral", "Every muscle relaxed"),
+)
+
+# Parameters per role that differ from the defaults (angles in degrees; ``reach`` is the
+# area of influence as a multiple of the attachment-insertion distance, ``depth_factor``
+# the furrow depth k0 as a fraction of the half cycle u).
+ROLE_PARAMS = {
+    "FRONTALIS_INNER": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.08},
+    "FRONTALIS_MAJOR": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.08},
+    "FRONTALIS_OUTER": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.08},
+    # frown lines and bunny lines are deep for their spacing
+    "CORRUGATOR": {"lambda_w": 0.1, "n_wrinkles": 2, "angle": 30.0, "depth_factor": 0.6},
+    "NASALIS": {"lambda_w": 0.3, "n_wrinkles": 3, "angle": 30.0, "depth_factor": 0.4},
+    "ZYGOMATICUS_MINOR": {"lambda_w": 0.5, "n_wrinkles": 2},
+    # the mouth muscles end at the mouth corner: a short reach and a narrow cone keep
+    # their regions from running across the lips to the other side of the face
+    "ZYGOMATICUS_MAJOR": {"lambda_w": 0.5, "n_wrinkles": 2, "angle": 20.0, "reach": 1.05},
+    "RISORIUS": {"lambda_w": 0.5, "n_wrinkles": 2, "angle": 20.0, "reach": 1.05},
+    "DEPRESSOR_ANGULI": {"lambda_w": 0.5, "n_wrinkles": 2, "reach": 1.1},
+    "MENTALIS": {"lambda_w": 0.2, "n_wrinkles": 3, "angle": 40.0},
+}
+
+
+def estimate_landmarks(bbox_min, bbox_max):
+    """Rough landmark guesses from the bounding box of a head (the artist confirms them)."""
+    lo, hi = np.asarray(bbox_min, float), np.asarray(bbox_max, float)
+    cx, w = 0.5 * (lo[0] + hi[0]), hi[0] - lo[0]
+    z0, h = lo[2], hi[2] - lo[2]
+
+    def p(dx, fz):
+        return np.array([cx + dx * w, lo[1], z0 + fz * h])
+
+    return {
+        "hairline_center": p(0.0, 0.86),
+        "glabella": p(0.0, 0.66),
+        "brow_outer_L": p(0.30, 0.67),
+        "eye_L": p(0.20, 0.61),
+        "nose_tip": p(0.0, 0.47),
+        "mouth_corner_L": p(0.15, 0.33),
+        "chin": p(0.0, 0.20),
+        "cheekbone_L": p(0.27, 0.50),
+    }
+
+
+def layout(landmarks):
+    """End points in the (x, z) plane for every muscle and side.
+
+    Returns a list of ``(role, side, kind, points)`` where ``points`` is an
+    (n, 2) array of (x, z): ``[m_A, m_I]`` for linear muscles and
+    ``[m_A1, m_A2, m_I2, m_I1]`` for sheets.  Side ``'L'`` is +X.
+    """
+    lm = {k: np.asarray(v, float)[[0, 2]] for k, v in landmarks.items()}
+    g, bo, eye = lm["glabella"], lm["brow_outer_L"], lm["eye_L"]
+    nose, mouth, chin = lm["nose_tip"], lm["mouth_corner_L"], lm["chin"]
+    hair, cheek = lm["hairline_center"], lm["cheekbone_L"]
+    bw = abs(bo[0] - g[0])  # half brow width
+    sign = 1.0 if bo[0] >= g[0] else -1.0
+
+    def x(f):
+        return g[0] + sign * f * bw
+
+    def brow_z(f):  # a gently arched brow line from the glabella to the outer brow
+        return g[1] + (bo[1] - g[1]) * f + 0.12 * bw * np.sin(np.pi * min(f, 1.0))
+
+    # The Frontalis attaches to the galea aponeurotica above the hairline; Waters' pull
+    # compresses the skin most near the attachment, so this puts the furrows on the
+    # forehead rather than at the hairline.  The three sheets of a side share one
+    # attachment line and one insertion height, so eq. 7 puts their furrows in phase.
+    # Their centres are D = bw/3 apart and each is 1.5 D wide with h_c = D/4: the
+    # smoothstep ramps of neighbours (and of the two inner sheets at the midline)
+    # coincide exactly, and their pulls add up to a uniform lift of the brows.
+    attach_z = hair[1] + 0.35 * (hair[1] - g[1])
+    insert_z = brow_z(0.5) + 0.08 * (hair[1] - g[1])  # just above the brow hairs
+
+    def sheet(i):
+        c0, c1 = (i - 0.25) / 3.0, (i + 1.25) / 3.0
+        return [(x(c0), attach_z), (x(c1), attach_z), (x(c1), insert_z), (x(c0), insert_z)]
+
+    ey = eye[1]
+    mid = abs(mouth[0] - g[0])
+    out = {
+        "FRONTALIS_INNER": sheet(0),
+        "FRONTALIS_MAJOR": sheet(1),
+        "FRONTALIS_OUTER": sheet(2),
+        "CORRUGATOR": [(x(0.10), g[1] - 0.05 * (g[1] - ey)), (x(0.55), brow_z(0.55) + 0.04 * bw)],
+        "NASALIS": [(x(0.30), nose[1] + 0.25 * (ey - nose[1])), (x(0.06), ey - 0.05 * (ey - nose[1]))],
+        "ZYGOMATICUS_MINOR": [
+            (cheek[0] - sign * 0.25 * bw, cheek[1] - 0.1 * (ey - nose[1])),
+            (g[0] + sign * 0.75 * mid, mouth[1] + 0.45 * (nose[1] - mouth[1])),
+        ],
+        "ZYGOMATICUS_MAJOR": [(cheek[0] + sign * 0.15 * bw, cheek[1]), (mouth[0], mouth[1])],
+        "RISORIUS": [(mouth[0] + sign * 1.1 * mid, mouth[1] + 0.1 * (nose[1] - mouth[1])),
+                     (mouth[0], mouth[1])],
+        "DEPRESSOR_ANGULI": [(mouth[0] + sign * 0.25 * mid, chin[1] + 0.1 * (mouth[1] - chin[1])),
+                             (mouth[0], mouth[1])],
+        "MENTALIS": [(g[0] + sign * 0.3 * mid, mouth[1] - 0.35 * (mouth[1] - chin[1])),
+                     (g[0] + sign * 0.3 * mid, chin[1] + 0.05 * (mouth[1] - chin[1]))],
+    }
+    result = []
+    for role, _name, kind in MUSCLES:
+        pts = np.array(out[role], float)
+        result.append((role, "L", kind, pts))
+        mirrored = pts.copy()
+        mirrored[:, 0] = 2.0 * g[0] - mirrored[:, 0]
+        if kind == "SHEET":  # keep the winding: swap the two ends of each line
+            mirrored = mirrored[[1, 0, 3, 2]]
+        result.append((role, "R", kind, mirrored))
+    return result

@@ -1,0 +1,275 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The per-frame muscle-wrinkle evaluation: a static :class:`Plan`, then :func:`evaluate`.
+
+Per frame (DESIGN.md, "Per-frame evaluation")::
+
+    skin      the deformed skin before any wrinkle (shape keys, armature, ...)
+    pulled    skin + Waters pull of every contracting muscle
+    tau       eq. 9 on the edges around the wrinkling regions, rest vs pulled
+    eps       eq. 10, per (muscle, region vertex), weights |cos theta| normalised
+    W         eq. 4: H(w) At (static, cached) * A(eps)
+    offset    pull + (sum of W over muscles) * skin normal
+
+Everything static - regions, (lambda, gamma, w), H(w) At, edge weights, rest
+lengths, the triangles around the regions - lives in the plan and is rebuilt
+only when the rest mesh, topology or a muscle's geometry or parameters change.
+The per-frame cost is proportional to the size of the regions, not the mesh.
+
+The contraction direction for eq. 10's ``theta_ij`` is taken at rest: the
+angle between an edge and ``x_i -> m_A`` barely changes while the skin
+deforms, and caching it removes half of the per-frame work.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import combine, mesh
+from . import zhang
+from .waters import LINEAR, muscle_field
+
+_F = np.float32
+
+
+@dataclass
+class Plan:
+    """Static data of one face and its muscles; sums over rows are segment sums.
+
+    Every per-frame sum (Waters pull per vertex, eq. 10 per row, heights and
+    normals per vertex) goes through a :class:`mesh.Bins` built here.
+    """
+
+    n_verts: int
+    verts: np.ndarray  # (U,) global index of each local vertex
+    flat: np.ndarray  # (3, U) index of each local vertex's x, y, z in a flattened (N, 3) array
+    # Waters pull rows
+    pull_vert: np.ndarray  # (P,) sorted by vertex
+    pull_muscle: np.ndarray
+    pull_weight: np.ndarray
+    pull_linear: np.ndarray  # (P,) float32: 1 for a linear muscle's row, 0 for a sheet's
+    pull_target: np.ndarray  # (3, P) attachment point of a linear row (0 for sheet rows)
+    pull_dir: np.ndarray  # (3, P) fixed direction of a sheet row (0 for linear rows)
+    muscle_pull: np.ndarray  # (M,) pull factor, 0 for wrinkles-only muscles
+    pull_sum: "mesh.Bins"  # pull rows -> local vertices
+    # compression
+    edges: np.ndarray  # (2, E') local end points
+    rest_length: np.ndarray
+    pair_edge: np.ndarray  # (row, incident edge) pairs
+    pair_weight: np.ndarray
+    pair_sum: "mesh.Bins"  # pairs -> rows
+    row_vert: np.ndarray  # local vertex of each (muscle, region vertex) row
+    row_muscle: np.ndarray
+    row_amp: np.ndarray  # H(w) At (fade)
+    height_sum: "mesh.Bins"  # rows -> local vertices with a wrinkle (``keys``)
+    footprint: "combine.Footprint"  # where the muscles write: pulled and raised vertices
+    output: "combine.Plan"  # the output stage for this plan alone (:func:`evaluate`)
+    half_cycles: np.ndarray  # (M,) u per muscle
+    region_sizes: np.ndarray  # (M,) vertices in each wrinkling region
+    problems: list = field(default_factory=list)  # (muscle index, message)
+
+
+def build_plan(rest, edges, tris, muscles):
+    """Precompute everything static.  ``rest`` (N, 3), ``edges`` (E, 2), ``tris`` (T, 3)."""
+    rest = np.asarray(rest, dtype=np.float64).reshape(-1, 3)
+    n = len(rest)
+    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
+    tris = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
+    fields, problems = [], []
+    for i, m in enumerate(muscles):
+        why = m.problem()
+        if why:
+            problems.append((i, why))
+        fields.append(muscle_field(rest, m))
+    n_m = len(muscles)
+
+    # Waters pull rows, all muscles concatenated
+    pull_vert = np.concatenate([f.aoi for f in fields] + [np.zeros(0, np.int32)])
+    pull_muscle = np.repeat(np.arange(n_m), [len(f.aoi) for f in fields])
+    pull_weight = np.concatenate([f.pull_weight for f in fields] + [np.zeros(0)])
+    linear = np.array([m.sanitized().kind == LINEAR for m in muscles], bool)[pull_muscle]
+    pull_target = np.array([f.target for f in fields]).reshape(-1, 3)[pull_muscle] * linear[:, None]
+    pull_dir = np.array([f.pull_dir for f in fields]).reshape(-1, 3)[pull_muscle] * ~linear[:, None]
+    muscle_pull = np.array([0.0 if m.sanitized().wrinkles_only else m.sanitized().pull for m in muscles])
+
+    # (muscle, region vertex) rows and their incident edges, eq. 10 weights
+    row_vert = np.concatenate([f.region for f in fields] + [np.zeros(0, np.int32)]).astype(np.int64)
+    row_muscle = np.repeat(np.arange(n_m), [len(f.region) for f in fields])
+    row_amp = np.concatenate([f.amplitude for f in fields] + [np.zeros(0)])
+    row_cdir = np.concatenate([f.contraction_dir for f in fields] + [np.zeros((0, 3))])
+    keep = row_amp != 0.0
+    row_vert, row_muscle, row_amp, row_cdir = row_vert[keep], row_muscle[keep], row_amp[keep], row_cdir[keep]
+
+    offsets, inc_edge = mesh.vertex_incidence(edges, n)
+    pair_row, pair_edge = mesh.gather_incident(offsets, inc_edge, row_vert)
+    rest_len = mesh.edge_lengths(rest, edges)
+    # Rest lengths exactly as the per-frame path computes lengths (float32), so that the
+    # rest pose gives tau == 0 to the bit and no wrinkle at all.
+    rest_len32 = mesh.edge_lengths(rest.astype(_F), edges)
+    e = edges[pair_edge]
+    d = rest[e[:, 1]] - rest[e[:, 0]]
+    length = rest_len[pair_edge]
+    ok = length > 1e-12
+    cos = np.abs(np.einsum("ij,ij->i", d, row_cdir[pair_row])) / np.where(ok, length, 1.0)
+    cos = np.where(ok, cos, 0.0)
+    total = np.bincount(pair_row, weights=cos, minlength=len(row_vert))
+    pair_weight = np.where(total[pair_row] > 0, cos / np.where(total[pair_row] > 0, total[pair_row], 1), 0)
+
+    # triangles around the vertices that get a wrinkle height, for the skin normal there
+    wrinkled = np.unique(row_vert)
+    in_region = np.zeros(n, bool)
+    in_region[wrinkled] = True
+    tri_keep = in_region[tris].any(axis=1) if len(tris) else np.zeros(0, bool)
+    tris = tris[tri_keep]
+
+    used_edges, pair_edge_local = np.unique(pair_edge, return_inverse=True)
+    verts = np.unique(np.concatenate([pull_vert, row_vert, edges[used_edges].ravel(), tris.ravel()]))
+    local = np.full(n, -1, dtype=np.int64)
+    local[verts] = np.arange(len(verts))
+    wrinkled_local = np.unique(local[row_vert])
+    pulls = bool(len(pull_vert)) and bool(np.any(muscle_pull > 0))
+    footprint = combine.Footprint(offset_verts=verts.astype(np.int64) if pulls else np.zeros(0, np.int64),
+                                  height_verts=verts[wrinkled_local].astype(np.int64))
+    return Plan(
+        n_verts=n,
+        verts=verts.astype(np.int64),
+        flat=verts[None, :].astype(np.int64) * 3 + np.arange(3)[:, None],
+        pull_vert=local[pull_vert],
+        pull_muscle=pull_muscle,
+        pull_weight=pull_weight.astype(_F),
+        pull_linear=linear.astype(_F),
+        pull_target=np.ascontiguousarray(pull_target.T, dtype=_F),
+        pull_dir=np.ascontiguousarray(pull_dir.T, dtype=_F),
+        muscle_pull=muscle_pull,
+        pull_sum=mesh.Bins.of(local[pull_vert]),
+        edges=np.ascontiguousarray(local[edges[used_edges]].reshape(-1, 2).T),
+        rest_length=rest_len32[used_edges],
+        pair_edge=pair_edge_local.ravel(),
+        pair_weight=pair_weight.astype(_F),
+        pair_sum=mesh.Bins.of(pair_row, domain=np.arange(len(row_vert))),
+        row_vert=local[row_vert],
+        row_muscle=row_muscle,
+        row_amp=row_amp.astype(_F),
+        height_sum=mesh.Bins.of(local[row_vert], domain=wrinkled_local),
+        footprint=footprint,
+        output=combine.build(n, tris, [footprint]),
+        half_cycles=np.array([f.half_cycle for f in fields]),
+        region_sizes=np.array([len(f.region) for f in fields]),
+        problems=problems,
+    )
+
+
+def waters_pull(plan, skin, contraction):
+    """The summed Waters pull (3, U) float32 at the plan's local vertices ``skin`` (3, U).
+
+    Every per-frame array here is one component per row, (3, K): 1-D gathers
+    and sums are several times faster in NumPy than on interleaved (K, 3).
+    """
+    out = np.zeros((3, len(plan.verts)), dtype=_F)
+    gain = (np.nan_to_num(np.asarray(contraction, dtype=np.float64)) * plan.muscle_pull).astype(_F)
+    if len(plan.pull_vert) == 0 or not gain.any():
+        return out
+    k = gain[plan.pull_muscle] * plan.pull_weight
+    rows = plan.pull_vert
+    # linear muscles: toward the attachment from where the skin is now, never past it;
+    # sheet muscles: parallel to the central fibre.  Both in one pass, masked per row.
+    to = [plan.pull_target[c] - skin[c][rows] for c in range(3)]
+    dist = np.sqrt(to[0] * to[0] + to[1] * to[1] + to[2] * to[2])
+    scale = plan.pull_linear * np.minimum(k, _F(0.95) * dist) / np.maximum(dist, _F(1e-12))
+    keys = plan.pull_sum.keys
+    for c in range(3):
+        out[c][keys] = plan.pull_sum.sum(to[c] * scale + plan.pull_dir[c] * k)
+    return out
+
+
+def compression(plan, pulled):
+    """Eq. 10 per (muscle, region vertex) row; ``pulled`` is (3, U)."""
+    if plan.edges.shape[1] == 0:
+        return np.zeros(len(plan.row_vert), dtype=_F)
+    e0, e1 = plan.edges
+    length = np.sqrt(sum((c[e1] - c[e0]) ** 2 for c in pulled))
+    tau = zhang.edge_shrinkage(plan.rest_length, length)
+    return plan.pair_sum.sum(plan.pair_weight * tau[plan.pair_edge])
+
+
+def _local_skin(plan, skin):
+    """The plan's local skin (3, U) float32 and the mask of non-finite vertices (or None)."""
+    return combine.local_skin(plan.flat, skin)
+
+
+def _pull_and_heights(plan, s, contraction, strength):
+    """Waters pull (3, U), the pulled skin (3, U) and eq. 4's summed height W at the
+    wrinkled local vertices ``plan.height_sum.keys``."""
+    offset = waters_pull(plan, s, contraction)
+    pulled = s + offset
+    w = plan.row_amp * zhang.anisotropic(compression(plan, pulled))
+    return offset, pulled, plan.height_sum.sum(w) * _F(np.nan_to_num(strength))
+
+
+def part(plan, skin, contraction, strength=1.0):
+    """The muscles' share of a frame for the output stage (``core.combine``): the Waters
+    pull (3, U) at ``plan.footprint.offset_verts`` (None when no muscle pulls) and eq. 4's
+    height W at ``plan.footprint.height_verts``, for the skin ``skin`` (N, 3)."""
+    if len(plan.verts) == 0:
+        return combine.Contribution()
+    s, _bad = _local_skin(plan, skin)
+    offset, _pulled, height = _pull_and_heights(plan, s, contraction, strength)
+    return combine.Contribution(offset=offset if len(plan.footprint.offset_verts) else None, height=height)
+
+
+def evaluate(plan, skin, contraction, strength=1.0, out=None):
+    """Offsets (N, 3) float32 for the skin positions ``skin`` (N, 3): the pull plus W along
+    the normal of the pulled skin, through the same output stage as the add-on's frames.
+
+    ``contraction`` holds one value per muscle.  ``out`` may be a preallocated
+    (N, 3) float32 array; only the plan's vertices are written, so keep it zero
+    elsewhere.  Non-finite input never produces non-finite output.
+    """
+    return combine.combine(plan.output, skin, [part(plan, skin, contraction, strength)], out)
+
+
+def heights(plan, skin, contraction, strength=1.0):
+    """Eq. 4's wrinkle height W (N,) float32 along the skin normal, per vertex (0 outside
+    the wrinkling regions): the scalar field that :func:`evaluate` displaces along the
+    normal, e.g. for baking it into a wrinkle map in UV space."""
+    out = np.zeros(plan.n_verts, dtype=_F)
+    if len(plan.verts) == 0:
+        return out
+    s, bad = _local_skin(plan, skin)
+    _offset, _pulled, height = _pull_and_heights(plan, s, contraction, strength)
+    local = np.zeros(len(plan.verts), dtype=_F)
+    local[plan.height_sum.keys] = height
+    if bad is not None:
+        local[bad] = 0.0
+    out[plan.verts] = np.nan_to_num(local, nan=0.0, posinf=0.0, neginf=0.0)
+    return out
+
+
+def formed_heights(plan, muscle, strength=1.0):
+    """The fully formed wrinkle of one muscle, ``H(w) At`` of eq. 4 with ``A(eps) = 1``,
+    per vertex (N,) float32: its wrinkles as they are once the skin is compressed enough,
+    whatever compresses it.  A wrinkle map holds this; the map's animated zone weight then
+    plays the part of ``A(eps)`` (Jimenez et al. 2011, §1.2)."""
+    out = np.zeros(plan.n_verts, dtype=_F)
+    rows = plan.row_muscle == muscle
+    if rows.any():
+        local = np.bincount(plan.row_vert[rows], weights=plan.row_amp[rows], minlength=len(plan.verts))
+        out[plan.verts] = local.astype(_F) * _F(np.nan_to_num(strength))
+    return out
+
+
+def refine_edges(rest, edges, muscles, factor=4.0):
+    """Edges to split so every half cycle ``u`` spans at least ``factor`` edges.
+
+    Returns the indices of edges touching a wrinkling region whose rest length
+    exceeds ``u / factor`` for that region's muscle (Zhang §3 refines where the
+    wrinkles need resolution).
+    """
+    rest = np.asarray(rest, dtype=np.float64).reshape(-1, 3)
+    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
+    limit = np.full(len(rest), np.inf)
+    for m in muscles:
+        f = muscle_field(rest, m)
+        if len(f.region) and f.half_cycle > 0:
+            np.minimum.at(limit, f.region, f.half_cycle / factor)
+    lim_e = np.minimum(limit[edges[:, 0]], limit[edges[:, 1]])
+    return np.flatnonzero(mesh.edge_lengths(rest, edges) > lim_e)

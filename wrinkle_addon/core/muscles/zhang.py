@@ -1,0 +1,109 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Zhang, Sim & Tan 2005, "Simulating Wrinkles in Facial Expressions on an
+Anatomy-Based Face": the scalar wrinkle functions, equations 5-12 and 15.
+
+Everything here is element-wise NumPy; arrays in, arrays out.
+
+Reading of the garbled equation 5 (the PDF extraction lost the fraction bars)::
+
+    t    = (w - u) / u                       in [-1, 1] over one cycle [0, 2u]
+    H(w) =  k0 (1 + t^2)^alpha t + d          0 <= w <= u    (t <= 0)
+    H(w) = -k0 (1 + t^2)^alpha t + d          u <  w <= 2u   (t >  0)
+         = d - k0 |t| (1 + t^2)^alpha
+
+The sign flip between the two branches only makes sense for an odd factor
+``t``, so the extraction kept the structure intact.  The furrows sit at the
+cycle ends (w = 0, 2u) where the slope jumps by ``2 k0 2^alpha (1 + alpha) / u``:
+they are sharp.  The bulge sits mid-cycle (w = u) where the slope jump is only
+``2 k0 / u``; with the default alpha = 1 the furrow is four times sharper than
+the bulge, which is the paper's "the furrow is sharp and the bulge is round".
+
+Equation 8 (zero mean, skin incompressibility) fixes ``d`` in closed form::
+
+    integral_0^{2u} H dw = 2u d - 2 k0 u integral_0^1 t (1+t^2)^alpha dt = 0
+    d = k0 (2^(alpha+1) - 1) / (2 (alpha + 1))      (alpha != -1)
+    d = k0 ln(2) / 2                                (alpha == -1)
+"""
+
+import numpy as np
+
+from ..mesh import edge_shrinkage  # noqa: F401  (eq. 9, shared with the other methods)
+
+_EPS = 1e-12
+
+
+def bulge_height(k0, alpha):
+    """Eq. 8 solved for the bulge height parameter ``d`` (closed form, see module doc)."""
+    k0 = np.asarray(k0, dtype=np.float64)
+    alpha = np.asarray(alpha, dtype=np.float64)
+    a1 = alpha + 1.0
+    near = np.abs(a1) < 1e-9
+    safe = np.where(near, 1.0, a1)
+    d = np.where(near, 0.5 * np.log(2.0), (np.power(2.0, a1) - 1.0) / (2.0 * safe))
+    return k0 * d
+
+
+def half_cycle(length, lambda_w, n_wrinkles):
+    """Eq. 6: the half cycle length ``u = (1 - lambda_w) R / (2 n_w)``.
+
+    ``length`` is R for a linear muscle and Ls for a sheet muscle.  ``n_wrinkles``
+    is clamped to at least 1e-6 so that ``n_w = 0`` cannot divide by zero.
+    """
+    return (1.0 - lambda_w) * length / (2.0 * np.maximum(n_wrinkles, 1e-6))
+
+
+def cycle_position(l, lambda_w, length, u):
+    """Eq. 7: map the longitudinal distance ``l`` periodically into ``[0, 2u)``.
+
+    ``w = l - lambda_w R - int((l - lambda_w R) / 2u) 2u``; for the region
+    ``l >= lambda_w R`` this is the non-negative remainder.
+    """
+    period = np.maximum(2.0 * u, _EPS)
+    return np.mod(np.asarray(l) - lambda_w * length, period)
+
+
+def shape_function(w, u, k0, alpha):
+    """Eq. 5: wrinkle cross-section ``H(w)`` (see the module doc for the reading)."""
+    u = np.maximum(u, _EPS)
+    t = (np.asarray(w) - u) / u
+    t = np.clip(t, -1.0, 1.0)
+    return bulge_height(k0, alpha) - k0 * np.abs(t) * np.power(1.0 + t * t, alpha)
+
+
+def anisotropic(eps):
+    """Eq. 11: ``A(eps) = cos(pi/2 (1 - eps))`` for ``0 <= eps <= 1``, 0 for stretch.
+
+    Compression above 1 cannot occur (edges cannot shrink by more than their
+    length) and is clamped to 1.
+    """
+    e = np.clip(eps, 0.0, 1.0)
+    return np.where(np.asarray(eps) > 0.0, np.cos(0.5 * np.pi * (1.0 - e)), 0.0)
+
+
+def attenuation(x, x_c, x_max):
+    """Eqs. 12 and 15: ``At = 1`` up to ``x_c``, then ``-1/2 (1 + s^2) s + 1`` with
+    ``s = (x - x_c) / (x_max - x_c)``, reaching exactly 0 at ``x_max`` and 0 beyond.
+
+    Eq. 12 uses the angle phi with (phi_c, Phi); eq. 15 uses the distance h from
+    the central fibre with (h_c, Ws/2).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    span = np.maximum(x_max - x_c, _EPS)
+    s = np.clip((x - x_c) / span, 0.0, 1.0)
+    return np.where(x > x_max, 0.0, 1.0 - 0.5 * (1.0 + s * s) * s)
+
+
+def edge_fade(l, start, end, u):
+    """Fade over the first and last half cycle of the wrinkling region.
+
+    Not in the paper: at both ends of the region (lambda = lambda_w and
+    lambda = 1) eq. 7 puts w = 0, where H is a furrow of depth
+    ``k0 2^alpha - d``.  Cutting it off there leaves a cliff in the skin, so the
+    amplitude is ramped with the same profile as eq. 12 over one half cycle ``u``
+    at each end.  Switch it off per muscle for the paper's exact model.
+    """
+    u = np.maximum(u, _EPS)
+    a = np.clip((np.asarray(l) - start) / u, 0.0, 1.0)
+    b = np.clip((end - np.asarray(l)) / u, 0.0, 1.0)
+    return attenuation(1.0 - a, 0.0, 1.0) * attenuation(1.0 - b, 0.0, 1.0)
+

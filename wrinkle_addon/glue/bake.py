@@ -1,0 +1,145 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Farm-safe bake: the animated, wrinkled face as an Alembic cache that renders anywhere.
+
+Blender's Alembic exporter steps through the frames and calls the frame-change
+handlers, so every exported frame holds that frame's wrinkles (checked against
+the live evaluation in the tests).  The bake then adds a stand-in object,
+"<face> Baked": a copy of the face's mesh without shape keys, parented to the
+face, whose Mesh Sequence Cache modifier reads the positions back.  The face
+itself is hidden from renders.  Nothing of this needs the add-on or Python, so
+``blender -b file.blend -a`` on a farm renders it identically.
+"""
+
+import os
+
+import bpy
+
+from . import registry, stage
+from .errors import WrinkleError
+
+BAKE_SUFFIX = " Baked"
+
+
+class BakeError(WrinkleError):
+    """A problem the user must fix; the message is shown as is."""
+
+
+def _abc_name(name):
+    # Blender's Alembic exporter replaces these characters in object and mesh names
+    return "".join("_" if c in " .:" else c for c in name)
+
+
+def has_stage(face):
+    """Whether ``face`` has geometric wrinkles to bake (the Wrinkles modifier)."""
+    return stage.find_modifier(face) is not None
+
+
+def stand_in(face):
+    """The baked stand-in of ``face``, or None."""
+    return face.ewrinkles_face.bake_object
+
+
+def has_any_bake(face):
+    """Whether ``face`` has a geometry bake or a bake of any wrinkle source."""
+    return stand_in(face) is not None or any(s.has_bake(face) for s in registry.sources())
+
+
+def default_path(face):
+    return f"//wrinkle_bake/{bpy.path.clean_name(face.name)}.abc"
+
+
+def bake(context, face, filepath, frame_start, frame_end):
+    """Export ``face`` over the frame range and switch its renders to the cache."""
+    if not bpy.data.filepath and filepath.startswith("//"):
+        raise BakeError("Save the .blend file first: the bake is written next to it")
+    if frame_end < frame_start:
+        raise BakeError("The frame range is empty")
+    if stage.find_modifier(face) is None:
+        raise BakeError(f'"{face.name}" has no Wrinkles modifier: enable wrinkles first')
+    free(face)
+    path = bpy.path.abspath(filepath)
+    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    view_layer = context.view_layer
+    selected = [ob for ob in context.selected_objects]
+    active = view_layer.objects.active
+    try:
+        for ob in selected:
+            ob.select_set(False)
+        face.select_set(True)
+        view_layer.objects.active = face
+        frame = context.scene.frame_current
+        bpy.ops.wm.alembic_export(
+            filepath=path, start=frame_start, end=frame_end, selected=True, flatten=True,
+            uvs=False, normals=False, vcolors=False, orcos=False, face_sets=False,
+            apply_subdiv=False, export_hair=False, export_particles=False,
+            export_custom_properties=False, evaluation_mode="RENDER", as_background_job=False,
+        )
+        context.scene.frame_set(frame)
+    finally:
+        face.select_set(False)
+        for ob in selected:
+            if ob.name in view_layer.objects:
+                ob.select_set(True)
+        view_layer.objects.active = active
+    if not os.path.exists(path):
+        raise BakeError(f"The Alembic export did not write {path}")
+    return _stand_in(face, filepath)
+
+
+def _stand_in(face, filepath):
+    me = face.data.copy()
+    me.name = face.data.name + BAKE_SUFFIX
+    baked = bpy.data.objects.new(face.name + BAKE_SUFFIX, me)
+    if me.shape_keys is not None:
+        baked.shape_key_clear()
+    for name in (stage.OFFSET_ATTR, stage.SKIN_ATTR):
+        if me.attributes.get(name) is not None:
+            me.attributes.remove(me.attributes[name])
+    for coll in face.users_collection:
+        coll.objects.link(baked)
+    baked.parent = face
+    baked.matrix_parent_inverse.identity()
+    for slot, src in zip(baked.material_slots, face.material_slots):
+        slot.link = src.link
+        slot.material = src.material
+    cache = _open_cache(bpy.path.abspath(filepath))
+    mod = baked.modifiers.new("Wrinkle Bake", "MESH_SEQUENCE_CACHE")
+    mod.cache_file = cache
+    mod.object_path = f"/{_abc_name(face.name)}/{_abc_name(face.data.name)}"
+    mod.read_data = {"VERT"}
+    # modifiers after the Wrinkles stage (Subdivision Surface) still apply on top
+    stage_mod = stage.find_modifier(face)
+    after = list(face.modifiers)[list(face.modifiers).index(stage_mod) + 1:]
+    for src in after:
+        dst = baked.modifiers.new(src.name, src.type)
+        for prop in src.bl_rna.properties:
+            if not prop.is_readonly and prop.identifier not in {"name", "type"}:
+                setattr(dst, prop.identifier, getattr(src, prop.identifier))
+    face.hide_render = True
+    face.ewrinkles_face.bake_object = baked
+    return baked
+
+
+def _open_cache(path):
+    """A CacheFile for ``path``, stored relative to the .blend so a farm finds it."""
+    before = set(bpy.data.cache_files)
+    bpy.ops.cachefile.open(filepath=path, relative_path=bool(bpy.data.filepath))
+    new = [c for c in bpy.data.cache_files if c not in before]
+    if not new:
+        raise BakeError(f"Blender could not open the cache {path}")
+    return new[0]
+
+
+def free(face):
+    """Remove the stand-in and render the live face again."""
+    baked = face.ewrinkles_face.bake_object
+    if baked is not None:
+        me = baked.data
+        cache = next((m.cache_file for m in baked.modifiers if m.type == "MESH_SEQUENCE_CACHE"), None)
+        bpy.data.objects.remove(baked)
+        if me.users == 0:
+            bpy.data.meshes.remove(me)
+        if cache is not None and cache.users == 0:
+            bpy.data.cache_files.remove(cache)
+    face.ewrinkles_face.bake_object = None
+    face.hide_render = False

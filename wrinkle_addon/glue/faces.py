@@ -1,0 +1,48 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The one face check, and the face an operator or panel acts on.
+
+Every caller says what it needs (:func:`problem`'s keywords); the messages are the same
+everywhere, so the panel, the operators and the frame handler agree about a face.
+"""
+
+
+def active(context):
+    """The face an operator acts on: the active object, or the face a selected muscle
+    belongs to (its parent)."""
+    ob = context.active_object
+    if ob is not None and ob.type == "MESH" and ob.ewrinkles_muscle.is_muscle and ob.parent is not None:
+        return ob.parent
+    return ob
+
+
+def _article(word):
+    return "an" if word[:1] in "aeiou" else "a"
+
+
+def problem(ob, *, local=True, object_mode=False, polygons=True, uv=False):
+    """Why ``ob`` cannot be used as a face, or None.
+
+    ``local``: its object and mesh must be editable (not linked from a library);
+    ``object_mode``: not in Edit Mode (the mesh's arrays are stale there);
+    ``polygons``: it must have faces; ``uv``: it must have a UV map."""
+    if ob is None:
+        return "No active object: select the face mesh"
+    if ob.type != "MESH":
+        kind = ob.type.lower()
+        return f'"{ob.name}" is {_article(kind)} {kind}, not a mesh: select the face mesh'
+    if ob.ewrinkles_muscle.is_muscle:
+        return f'"{ob.name}" is a muscle, not a face: select the face mesh'
+    if local:
+        if ob.library is not None or ob.data.library is not None:
+            lib = (ob.library or ob.data.library).filepath
+            return (f'"{ob.name}" is linked from {lib} and is read-only: make it local or use a '
+                    "library override")
+        if ob.override_library is not None and ob.data.library is not None:
+            return f'The mesh of "{ob.name}" is linked and read-only: override or make it local'
+    if object_mode and ob.mode == "EDIT":
+        return f'"{ob.name}" is in Edit Mode: switch to Object Mode'
+    if polygons and len(ob.data.polygons) == 0:
+        return f'"{ob.name}" has no faces: wrinkles need a surface'
+    if uv and len(ob.data.uv_layers) == 0:
+        return f'"{ob.name}" has no UV map: unwrap it first (UV > Unwrap)'
+    return None

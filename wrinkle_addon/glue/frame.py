@@ -1,0 +1,382 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The per-frame evaluator: one per face object, run from a ``frame_change_post`` handler.
+
+Per frame, for every face with wrinkles enabled:
+
+1. read the deformed skin ``wrinkle_skin`` from the evaluated mesh (shape keys,
+   armature and other deformers, before our own offset - no feedback);
+2. rebuild the cached static plan only if the topology, the rest positions or
+   a muscle's geometry or parameters changed (compared by signature, so undo,
+   drivers and animated parameters are all handled);
+3. evaluate the muscles in NumPy (``core.system.evaluate``);
+4. write the result, in one of two ways:
+
+   * **write-back** (renders, exports, interactive edits): ``foreach_set`` the
+     offsets into the original mesh's ``wrinkle_offset`` and tag it.  Blender
+     then evaluates the face's whole modifier stack a second time in the same
+     frame change (shape keys, armature, the stage), and any depsgraph built
+     later - a render's, an exporter's - sees the same offsets.
+   * **in place** (viewport frame changes: playback, scrubbing, ``frame_set``):
+     write ``skin + offset`` straight into the evaluated mesh of the depsgraph
+     that is being updated, and tell that mesh its positions changed so its
+     normals are recomputed.  No second evaluation: a frame costs Blender's own
+     evaluation plus this handler.  Used only when the evaluated mesh was
+     re-evaluated for this frame (so its draw cache is rebuilt from our data)
+     and has exactly the base vertices (no CPU subdivision after the stage);
+     otherwise the frame falls back to write-back.
+
+   Render and export depsgraphs are always written back (measured: every
+   render and Alembic frame calls ``frame_change_post`` with a RENDER-mode
+   depsgraph), so final frames never depend on the in-place path.
+
+No ``bpy`` object is held between calls: the cache holds NumPy arrays keyed by
+``Object.session_uid``, and every call looks the objects up again, so undo,
+file reload, deleted muscles and Edit Mode topology changes cannot leave a
+dangling reference.  Handlers never raise: problems become a status message
+shown in the panel.
+"""
+
+import bpy
+import numpy as np
+from bpy.app.handlers import persistent
+
+from ..core import combine
+from ..core import mesh as core_mesh
+from . import faces, meshio, registry, stage, status
+from .errors import WrinkleError
+
+CHANNEL = "stage"  # the status channel of the stage itself
+_cache = {}  # session_uid -> _FaceState
+
+
+class _FaceState:
+    __slots__ = ("key", "mesh", "scratch", "statics", "plan", "plan_key", "out", "skin", "positions",
+                 "orig_inputs", "shown")
+
+    def __init__(self):
+        self.key = None
+        self.mesh = None
+        self.scratch = None
+        self.statics = {}  # source name -> (static key, static data)
+        self.plan = None  # core.combine.Plan of the geometric sources
+        self.plan_key = None
+        self.orig_inputs = None  # the inputs whose offsets the original mesh holds
+        self.shown = None  # the positions the evaluated mesh shows after our last write
+
+
+def status_of(ob):
+    """Every message the panel shows for ``ob`` (the stage's and the sources')."""
+    return status.get(ob)
+
+
+def forget(ob, source_name=None):
+    """Drop ``ob``'s cached static data (of one source, or all): the next frame rebuilds it.
+    For changes no static key can see, such as new pixels in a mask image."""
+    state = _cache.get(ob.session_uid)
+    if state is not None:
+        if source_name is None:
+            _cache.pop(ob.session_uid, None)
+        else:
+            state.statics.pop(source_name, None)
+            state.plan_key = None
+
+
+def _topology(state, me):
+    """Re-read the rest mesh when its topology or rest positions changed."""
+    key = meshio.topology_key(me)
+    if state.key == key:  # same counts: compare the rest shape in a reused buffer
+        state.scratch = meshio.read_vectors(me, "position", state.scratch)
+        if np.array_equal(state.scratch, state.mesh.rest):
+            return False
+    rest = meshio.read_vectors(me, "position")
+    corner, starts, sizes = meshio.read_polygons(me)
+    state.key = key
+    tris = core_mesh.fan_triangles(corner, starts, sizes)
+    state.mesh = registry.MeshArrays(rest, meshio.read_edges(me), tris)
+    n = len(rest)
+    state.out = np.zeros((n, 3), dtype=np.float32)
+    state.skin = np.empty((n, 3), dtype=np.float32)
+    state.positions = np.empty((n, 3), dtype=np.float32)
+    state.statics = {}
+    state.plan = state.plan_key = None
+    state.shown = None
+    return True
+
+
+def _static(state, source, ob, in_scene):
+    key = source.static_key(ob, in_scene)
+    cached = state.statics.get(source.name)
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    data = source.build(ob, state.mesh, in_scene)
+    state.statics[source.name] = (key, data)
+    state.plan_key = None if source.geometric else state.plan_key
+    return data
+
+
+def _plan(state, geometric, statics):
+    key = tuple((s.name, id(statics[s.name])) for s in geometric)
+    if state.plan is None or state.plan_key != key:
+        footprints = [statics[s.name].footprint for s in geometric]
+        state.plan = combine.build(len(state.mesh.rest), state.mesh.tris, footprints)
+        state.plan_key = key
+        state.out[:] = 0.0
+        state.orig_inputs = None
+    return state.plan
+
+
+def _write_in_place(state, ev, skin, offset):
+    """Write ``skin + offset`` into the evaluated mesh ``ev``.  False when that is not safe.
+
+    Safe only when ``ev`` has exactly the base vertices and was re-evaluated
+    since our last write, which we know when it no longer shows the positions
+    that write left (``state.shown``): then Blender rebuilds its draw data from
+    what we leave in it.  If it was not re-evaluated and already shows these
+    positions, there is nothing to do.  Without a previous write we cannot tell.
+    """
+    if len(ev.vertices) != len(skin) or state.shown is None:
+        return False
+    pos = ev.attributes["position"]
+    current = state.positions
+    pos.data.foreach_get("vector", current.reshape(-1))
+    new = skin + offset
+    if np.array_equal(current, state.shown):
+        return np.array_equal(new, current)  # not re-evaluated: only identical is fine
+    pos.data.foreach_set("vector", new.reshape(-1))
+    if ev.attributes.get(stage.OFFSET_ATTR) is not None:  # keep the evaluated mesh consistent
+        meshio.write_vectors(ev, stage.OFFSET_ATTR, offset)
+    ev.update()  # drops the cached normals; measured not to trigger a re-evaluation
+    state.shown = new
+    return True
+
+
+def _stage_problem(ob, ev, mod):
+    """Why the geometric stage cannot run on ``ob`` this frame, or None."""
+    if mod is None:
+        return "The Wrinkles modifier is missing: switch wrinkles off and on again"
+    if ev.attributes.get(stage.SKIN_ATTR) is None:
+        return "The Wrinkles modifier is disabled or not evaluated"
+    return stage.order_problem(ob, mod, len(ev.vertices))
+
+
+def _write_shading(ob, active, statics, contributions):
+    for source, part in zip(active, contributions):
+        for name, values in part.attributes.items():
+            meshio.write_floats(ob.data, name, values)
+        for name, values in part.shading.items():
+            source.write_shading(ob, statics[source.name], name, values)
+
+
+def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=None):
+    """Evaluate every active wrinkle source on one face and write the result once.
+
+    Returns True when it wrote new offsets.  ``in_place``: write into ``depsgraph``'s
+    evaluated mesh if that is safe (see the module doc), else write back into the original
+    mesh.  ``only_if_changed``: skip when the original mesh already holds the offsets of
+    these inputs.  ``in_scene``: the ``session_uid`` of every object of the scene."""
+    enabled = ob.ewrinkles_face.enabled
+    active = [s for s in registry.sources() if (enabled or not s.geometric) and s.active(ob)]
+    if not active and not enabled:
+        return False
+    why = faces.problem(ob)
+    if why is None and ob.mode == "EDIT":
+        why = "Paused in Edit Mode"
+    me = ob.data
+    ev = ob.evaluated_get(depsgraph).data if why is None else None
+    mod = stage.find_modifier(ob) if enabled else None
+    if why is None and enabled:
+        if mod is not None and me.attributes.get(stage.OFFSET_ATTR) is None:
+            stage.ensure_offset_attribute(me)
+        why = _stage_problem(ob, ev, mod)
+    status.set(ob, CHANNEL, why or "")
+    if why:
+        return False
+    if in_scene is None:
+        in_scene = {o.session_uid for o in bpy.context.scene.objects}
+
+    state = _cache.get(ob.session_uid)
+    if state is None:
+        state = _cache[ob.session_uid] = _FaceState()
+    _topology(state, me)
+    n = len(state.mesh.rest)
+    if len(ev.vertices) < n:
+        status.set(ob, CHANNEL, f'The modifiers of "{ob.name}" remove vertices: wrinkles need them all')
+        return False
+    skin = meshio.read_vector_prefix(ev, stage.SKIN_ATTR if enabled else "position", n, state.skin)
+    statics = {s.name: _static(state, s, ob, in_scene) for s in active}
+    inputs = (float(ob.ewrinkles_face.strength),) + tuple(s.inputs(ob, statics[s.name]) for s in active)
+    if only_if_changed and state.orig_inputs is not None:
+        old_skin, old_inputs = state.orig_inputs
+        if old_inputs == inputs and np.array_equal(old_skin, skin):
+            return False
+    contributions = [s.contribute(ob, statics[s.name], skin) for s in active]
+    for s in active:
+        status.set(ob, s.name, s.problems(ob, statics[s.name]))
+    _write_shading(ob, active, statics, contributions)
+    if not enabled:
+        state.orig_inputs = (skin.copy(), inputs)
+        return False
+    geometric = [(s, c) for s, c in zip(active, contributions) if s.geometric]
+    plan = _plan(state, [s for s, _c in geometric], statics)
+    out = combine.combine(plan, skin, [c for _s, c in geometric], out=state.out)
+    if not (in_place and _write_in_place(state, ev, skin, out)):
+        meshio.write_vectors(me, stage.OFFSET_ATTR, out)
+        stage.stamp(ob, depsgraph)
+        me.update_tag()
+        state.orig_inputs = (skin.copy(), inputs)
+        state.shown = skin + out  # what the re-evaluation that the tag triggers will show
+    return True
+
+
+def _scan(scene):
+    """The faces any wrinkle source works on, and the session_uid of every object, in one
+    pass."""
+    found, in_scene = [], set()
+    shading = [s for s in registry.sources() if not s.geometric]
+    for ob in scene.objects:
+        in_scene.add(ob.session_uid)
+        if ob.type == "MESH" and (ob.ewrinkles_face.enabled or any(s.active(ob) for s in shading)):
+            found.append(ob)
+    return found, in_scene
+
+
+def update_scene(scene, depsgraph, only_if_changed=False, in_place=False):
+    found, in_scene = _scan(scene)
+    meshes = [ob.data for ob in found if ob.ewrinkles_face.enabled]
+    for ob in found:
+        if ob.ewrinkles_face.enabled and meshes.count(ob.data) > 1:  # they would overwrite each other
+            status.set(ob, CHANNEL, f'"{ob.name}" shares its mesh with another face with wrinkles: '
+                                    "make the mesh single-user (Object > Relations > Make Single User)")
+            continue
+        try:
+            update_face(ob, depsgraph, only_if_changed, in_place, in_scene)
+        except Exception as exc:  # a handler must never raise into Blender
+            status.set(ob, CHANNEL, f"Internal error, wrinkles skipped: {exc!r}")
+            print(f"Expression Wrinkles: {ob.name}: {exc!r}")
+
+
+def _rendering():
+    running = getattr(bpy.app, "is_job_running", None)
+    return bool(running and running("RENDER"))
+
+
+_in_frame_sync = False
+
+
+def _current_depsgraph(scene):
+    """The context's evaluated depsgraph, brought to the scene's current frame.
+
+    Measured on bpy 4.5 and 5.2: on the FIRST frame of ``render(animation=True)``
+    started from another frame, the context's depsgraph is still at the old
+    frame (its ``scene_eval.frame_current`` lags), so the skin read from it and
+    the original shape-key values the render re-evaluates with are both stale.
+    Setting the frame again evaluates it; our handler skips the nested call.
+    """
+    global _in_frame_sync
+    dg = bpy.context.evaluated_depsgraph_get()
+    if dg.scene_eval.frame_current != scene.frame_current and not _in_frame_sync:
+        _in_frame_sync = True
+        try:
+            scene.frame_set(scene.frame_current, subframe=scene.frame_subframe)
+        finally:
+            _in_frame_sync = False
+        dg = bpy.context.evaluated_depsgraph_get()
+    return dg
+
+
+@persistent
+def on_frame_change_post(scene, depsgraph=None):
+    if _in_frame_sync:
+        return
+    if depsgraph is not None and depsgraph.mode == "VIEWPORT":
+        # the depsgraph just evaluated for this frame: write into it, no second evaluation
+        update_scene(scene, depsgraph, in_place=True)
+        return
+    # Renders and exports: write back, reading through the context's depsgraph, since the
+    # handler's argument drops other animated shape keys during render(animation=True)
+    # (docs/architecture.md, "The frame handler").
+    update_scene(scene, _current_depsgraph(scene))
+
+
+@persistent
+def on_depsgraph_update_post(scene, depsgraph=None):
+    # Interactive edits only (a shape key slider, a muscle moved): renders and background
+    # jobs are driven by frame changes.  Unchanged inputs write nothing, so our own
+    # write does not loop.
+    if bpy.app.background or _rendering():
+        return
+    screen = getattr(bpy.context, "screen", None)
+    if screen is not None and screen.is_animation_playing:
+        return  # playback is handled frame by frame
+    update_scene(scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
+
+
+@persistent
+def on_save_pre(*_args):
+    # In-place frames leave older offsets in the original mesh: store this frame's, so the
+    # file opens showing what was on screen (even where the add-on is not installed).
+    ctx = bpy.context
+    if ctx.scene is not None and not _rendering():
+        update_scene(ctx.scene, ctx.evaluated_depsgraph_get(), only_if_changed=True)
+
+
+@persistent
+def on_load_post(*_args):
+    _cache.clear()
+    status.clear()
+
+
+def refresh_all(context):
+    """Re-evaluate after a property change (not while rendering)."""
+    if context is None or context.scene is None or _rendering():
+        return
+    update_scene(context.scene, context.evaluated_depsgraph_get())
+
+
+def enable(ob, scene):
+    """Add the output stage and switch wrinkles on.  Raises ``WrinkleError``."""
+    why = faces.problem(ob)
+    if why:
+        raise WrinkleError(why)
+    stage.ensure_modifier(ob)
+    scene.render.use_lock_interface = True
+
+
+def disable(ob):
+    """Remove the output stage: the mesh and its shape keys are exactly as before."""
+    stage.remove(ob)
+    _cache.pop(ob.session_uid, None)
+    status.clear(ob)
+
+
+def on_enabled_changed(ob, context):
+    try:
+        if ob.ewrinkles_face.enabled:
+            enable(ob, context.scene)
+            refresh_all(context)
+        else:
+            disable(ob)
+    except WrinkleError as exc:
+        status.set(ob, CHANNEL, str(exc))
+
+
+_HANDLERS = (
+    (bpy.app.handlers.frame_change_post, on_frame_change_post),
+    (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update_post),
+    (bpy.app.handlers.load_post, on_load_post),
+    (bpy.app.handlers.save_pre, on_save_pre),
+)
+
+
+def register():
+    for handlers, fn in _HANDLERS:
+        if fn not in handlers:
+            handlers.append(fn)
+
+
+def unregister():
+    for handlers, fn in _HANDLERS:
+        while fn in handlers:
+            handlers.remove(fn)
+    _cache.clear()
+    status.clear()

@@ -1,0 +1,467 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Wrinkle maps on a face material: wiring, the expression table and its drivers.
+
+``setup`` checks everything first and changes nothing when something is wrong; then it
+puts the ``Wrinkle Map Blend`` group (:mod:`mapgroup`) in front of the Principled BSDF's
+normal input, feeds it the base map, wrinkle maps and masks, and feeds its zone inputs
+from the face's ``Wrinkle Weights`` group.  ``sync`` keeps that group in step with the
+table in ``Object.ewrinkles_face.maps``: each expression's value comes from a driver with one
+variable (type AVERAGE, no Python expression) reading its source, a shape key, a muscle's
+contraction or any property.
+"""
+
+import bpy
+import numpy as np
+
+from ...core import mesh as core_mesh
+from ...core.maps import jimenez as wm
+from ...core.maps.jimenez import N_ZONES
+from .. import frame as frame_stage
+from .. import images, meshio
+from .. import status as status_store
+from . import bake as mapbake
+from . import nodegroups as mapgroup
+
+BLEND_NODE = "Wrinkle Map Blend"
+WEIGHTS_NODE = "Wrinkle Weights"
+UV_NODE = "Wrinkle UV"
+NORMAL_NODE = "Wrinkle Normal Map"
+# (settings property, image node, blend-group input it feeds)
+MAP_PROPS = ("map_a", "map_b", "map_c", "map_d", "map_e", "map_f", "map_g", "map_h")  # maps 1-8
+IMAGE_NODES = (("base_image", "Wrinkle Base", "Base Normal"),
+               *((prop, f"Wrinkle Map {k + 1}", mapgroup.map_socket(k)) for k, prop in enumerate(MAP_PROPS)),
+               ("mask_a", "Wrinkle Mask A", "Mask A"),
+               ("mask_b", "Wrinkle Mask B", "Mask B"))
+_OURS = {BLEND_NODE, WEIGHTS_NODE, UV_NODE, NORMAL_NODE} | {n for _p, n, _s in IMAGE_NODES}
+CHANNEL = "maps"  # this method's status channel
+_problems = {}  # face session_uid -> {expression index: message}
+
+
+MapError = mapgroup.MapError
+
+
+def status(face):
+    return status_store.get(face, CHANNEL)
+
+
+def set_status(face, message):
+    status_store.set(face, CHANNEL, message)
+
+
+def binding_problem(face, e):
+    return _problems.get(face.session_uid, {}).get(e, "")
+
+
+def n_maps(maps):
+    """How many wrinkle maps the face uses: at least 2, and every map an expression or an
+    image slot refers to."""
+    slots = [k + 1 for k, prop in enumerate(MAP_PROPS) if getattr(maps, prop) is not None]
+    return max([2] + slots + [ex.map_index for ex in maps.expressions])
+
+
+def table(maps):
+    return np.array([list(ex.weights) for ex in maps.expressions], np.float32).reshape(-1, N_ZONES)
+
+
+# ---------------------------------------------------------------------------------------
+# checks
+
+
+def _principled(nt):
+    bsdfs = [n for n in nt.nodes if n.type == "BSDF_PRINCIPLED"]
+    for out in (n for n in nt.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output):
+        linked = [lk.from_node for lk in out.inputs["Surface"].links]
+        if linked and linked[0].type == "BSDF_PRINCIPLED":
+            return linked[0]
+    return bsdfs[0] if bsdfs else None
+
+
+def _image_problem(label, img, square=True, alpha=False):
+    if img is None:
+        return None
+    try:
+        images.check_loaded(img)
+    except images.ImageError as exc:
+        return f"{label}: {exc}"
+    w, h = img.size
+    channels = images.channel_count(img)
+    if channels < 3:
+        return f'{label} "{img.name}" has {channels} channel(s); it needs RGB'
+    if alpha and channels < 4:
+        return f'{label} "{img.name}" has no alpha channel; the 4th zone of a mask lives in alpha'
+    if square and w != h:
+        return f'{label} "{img.name}" is {w} x {h}; wrinkle maps and masks must be square'
+    return None
+
+
+def check(face, material=None):
+    """Why wrinkle maps cannot be set up on ``face`` (a message), or None."""
+    if face is None or face.type != "MESH":
+        return "Select a face mesh"
+    me = face.data
+    if face.library is not None or me.library is not None:
+        return f'"{face.name}" is linked and read-only'
+    if len(me.uv_layers) == 0:
+        return f'"{face.name}" has no UV map: wrinkle maps need UVs'
+    maps = face.ewrinkles_face.maps
+    if maps.uv_map and maps.uv_map not in me.uv_layers:
+        return f'"{face.name}" has no UV map named "{maps.uv_map}"'
+    mat = material or maps.material or face.active_material
+    if mat is None:
+        return f'"{face.name}" has no material: add one with a Principled BSDF'
+    if mat.library is not None:
+        return f'The material "{mat.name}" is linked and read-only: make it local'
+    if mat.node_tree is None or _principled(mat.node_tree) is None:
+        return f'The material "{mat.name}" has no Principled BSDF to feed'
+    wrinkle_maps = [(f"Wrinkle map {k + 1}", getattr(maps, prop)) for k, prop in enumerate(MAP_PROPS)]
+    for label, img, alpha, square in (
+        ("The base normal map", maps.base_image, False, False),
+        *((label, img, False, True) for label, img in wrinkle_maps),
+        ("Mask A", maps.mask_a, True, True),
+        ("Mask B", maps.mask_b, True, True),
+    ):
+        why = _image_problem(label, img, square, alpha)
+        if why:
+            return why
+    present = [img for _label, img in wrinkle_maps if img is not None]
+    pairs = [(present[0], img, "wrinkle maps") for img in present[1:]] + [(maps.mask_a, maps.mask_b, "masks")]
+    for a, b, what in pairs:
+        if a is not None and b is not None and tuple(a.size) != tuple(b.size):
+            return (f'The {what} "{a.name}" ({a.size[0]} x {a.size[1]}) and "{b.name}" '
+                    f"({b.size[0]} x {b.size[1]}) differ in size")
+    for ng in (bpy.data.node_groups.get(mapgroup.BLEND_GROUP), maps.weights_group):
+        if ng is not None and (ng.library is not None or not ng.is_editable):
+            return f'The node group "{ng.name}" is linked and read-only: make it local'
+    return None
+
+
+# ---------------------------------------------------------------------------------------
+# wiring
+
+
+def _node(nt, name, kind, location):
+    node = nt.nodes.get(name)
+    if node is not None and node.bl_idname != kind:
+        nt.nodes.remove(node)
+        node = None
+    if node is None:
+        node = nt.nodes.new(kind)
+        node.name = node.label = name
+        node.location = location
+    return node
+
+
+def _existing_base(nt, bsdf):
+    """The image of a Normal Map node already feeding the BSDF's normal, if any."""
+    for lk in bsdf.inputs["Normal"].links:
+        node = lk.from_node
+        if node.type == "NORMAL_MAP" and node.inputs["Color"].links:
+            src = node.inputs["Color"].links[0].from_node
+            if src.type == "TEX_IMAGE" and src.image is not None:
+                return src.image
+    return None
+
+
+def setup(face, material=None):
+    """Wire the wrinkle maps into the face material.  Raises MapError, changing nothing."""
+    why = check(face, material)
+    if why:
+        raise MapError(why)
+    maps = face.ewrinkles_face.maps
+    mat = material or maps.material or face.active_material
+    nt = mat.node_tree
+    bsdf = _principled(nt)
+    blend_group = mapgroup.ensure_blend_group(n_maps(maps))
+    old = [(lk.from_node.name, lk.from_socket.identifier) for lk in bsdf.inputs["Normal"].links
+           if lk.from_node.name not in _OURS]
+    if maps.base_image is None:
+        maps.base_image = _existing_base(nt, bsdf)
+    maps.material = mat
+    if maps.weights_group is None:
+        maps.weights_group = bpy.data.node_groups.new(f"{mapgroup.WEIGHTS_PREFIX} {face.name}",
+                                                      "ShaderNodeTree")
+
+    x, y = bsdf.location.x, bsdf.location.y
+    blend = _node(nt, BLEND_NODE, "ShaderNodeGroup", (x - 300, y - 400))
+    blend.node_tree = blend_group
+    if old and "wrinkle_previous_normal" not in blend:
+        blend["wrinkle_previous_normal"] = list(old[0])
+    weights = _node(nt, WEIGHTS_NODE, "ShaderNodeGroup", (x - 600, y - 900))
+    weights.node_tree = maps.weights_group
+    uv = _node(nt, UV_NODE, "ShaderNodeUVMap", (x - 1100, y - 400))
+    uv.uv_map = maps.uv_map
+    for i, (prop, name, _socket) in enumerate(IMAGE_NODES):
+        img = getattr(maps, prop)
+        node = nt.nodes.get(name)
+        if img is None:
+            if node is not None:
+                nt.nodes.remove(node)
+            continue
+        node = _node(nt, name, "ShaderNodeTexImage", (x - 850, y - 250 - 280 * i))
+        node.image = img
+        img.colorspace_settings.name = "Non-Color"  # every one of them is data
+        if prop.startswith("mask"):
+            img.alpha_mode = "CHANNEL_PACKED"  # the alpha is zone 4 / 8, not coverage
+            # no zone outside the 0-1 square: UVs in other tiles (the ICT head's back of
+            # the head) would otherwise wrap around onto the face's zones
+            node.extension = "CLIP"
+        nt.links.new(uv.outputs["UV"], node.inputs["Vector"])
+    normal = blend.outputs["Normal"]
+    nmap = nt.nodes.get(NORMAL_NODE)
+    if maps.uv_map:  # the shared group's Normal Map node has the render-active UV map's tangents
+        nmap = _node(nt, NORMAL_NODE, "ShaderNodeNormalMap", (x - 150, y - 600))
+        nmap.space = "TANGENT"
+        nmap.uv_map = maps.uv_map
+        nt.links.new(blend.outputs["Color"], nmap.inputs["Color"])
+        normal = nmap.outputs["Normal"]
+    elif nmap is not None:
+        nt.nodes.remove(nmap)
+    nt.links.new(normal, bsdf.inputs["Normal"])
+    sync(face, rebind=True)
+    return mat
+
+
+def _wire(face):
+    """Links from the image nodes and the weights group into the blend node."""
+    maps = face.ewrinkles_face.maps
+    nt = maps.material.node_tree
+    blend, weights = nt.nodes.get(BLEND_NODE), nt.nodes.get(WEIGHTS_NODE)
+    if blend is None or weights is None:
+        return
+    for _prop, src, dst in IMAGE_NODES:
+        node = nt.nodes.get(src)
+        if node is not None:
+            nt.links.new(node.outputs["Color"], blend.inputs[dst])
+            if dst.startswith("Mask"):
+                nt.links.new(node.outputs["Alpha"], blend.inputs[dst + " Alpha"])
+    for out in weights.outputs:
+        if out.name in blend.inputs:
+            nt.links.new(out, blend.inputs[out.name])
+    blend.inputs["Strength"].default_value = maps.strength
+    blend.inputs["Difference Maps"].default_value = 1.0 if maps.difference else 0.0
+
+
+def remove(face):
+    """Take the wrinkle maps out of the material and restore its previous normal link."""
+    maps = face.ewrinkles_face.maps
+    mat = maps.material
+    if mat is not None and mat.node_tree is not None:
+        nt = mat.node_tree
+        blend = nt.nodes.get(BLEND_NODE)
+        prev = list(blend.get("wrinkle_previous_normal", [])) if blend is not None else []
+        for name in _OURS:
+            node = nt.nodes.get(name)
+            if node is not None:
+                nt.nodes.remove(node)
+        bsdf = _principled(nt)
+        if prev and bsdf is not None and prev[0] in nt.nodes:
+            src = next((s for s in nt.nodes[prev[0]].outputs if s.identifier == prev[1]), None)
+            if src is not None:
+                nt.links.new(src, bsdf.inputs["Normal"])
+    ng = maps.weights_group
+    maps.weights_group = None
+    maps.material = None
+    if ng is not None and ng.users == 0 and ng.library is None:
+        bpy.data.node_groups.remove(ng)
+    set_status(face, "")
+
+
+# ---------------------------------------------------------------------------------------
+# the expression table
+
+
+def _target(face, ex):
+    """(id_type, id, data_path) of the expression's source, or a problem message."""
+    if ex.source == "SHAPE_KEY":
+        keys = face.data.shape_keys
+        if not ex.shape_key:
+            return "pick a shape key"
+        if keys is None or ex.shape_key not in keys.key_blocks:
+            return f'"{face.name}" has no shape key "{ex.shape_key}"'
+        return ("KEY", keys, f'key_blocks["{bpy.utils.escape_identifier(ex.shape_key)}"].value')
+    if ex.source == "MUSCLE":
+        if ex.muscle is None:
+            return "pick a muscle"
+        return ("OBJECT", ex.muscle, "ewrinkles_muscle.contraction")
+    if ex.source == "PROPERTY":
+        if ex.target is None or not ex.data_path:
+            return "pick an object and a data path"
+        try:
+            value = ex.target.path_resolve(ex.data_path)
+        except (ValueError, TypeError):
+            return f'"{ex.target.name}" has no property "{ex.data_path}"'
+        if not isinstance(value, (int, float, bool)):
+            return f'"{ex.data_path}" is not a single number'
+        return ("OBJECT", ex.target, ex.data_path)
+    return None
+
+
+def _value_path(node_name):
+    return f'nodes["{node_name}"].outputs[0].default_value'
+
+
+def baked_paths(ng):
+    return set(ng.get("wrinkle_baked", [])) if ng is not None else set()
+
+
+def _bind(face, ng):
+    problems = {}
+    baked = baked_paths(ng)
+    for e, ex in enumerate(face.ewrinkles_face.maps.expressions):
+        path = _value_path(mapgroup.expr_node(e))
+        if path in baked:
+            continue
+        ng.driver_remove(path)
+        target = _target(face, ex)
+        if isinstance(target, str):
+            problems[e] = target
+            continue
+        if target is None:
+            continue
+        id_type, ident, data_path = target
+        drv = ng.driver_add(path).driver
+        drv.type = "AVERAGE"  # one variable, no expression: evaluates without Python
+        var = drv.variables.new()
+        var.name = "value"
+        var.type = "SINGLE_PROP"
+        var.targets[0].id_type = id_type
+        var.targets[0].id = ident
+        var.targets[0].data_path = data_path
+    _problems[face.session_uid] = problems
+    return problems
+
+
+def sync(face, rebind=False):
+    """Bring the weights group and the blend node in step with the table."""
+    maps = face.ewrinkles_face.maps
+    frame_stage.forget(face, CHANNEL)  # masks or UVs may have changed: rebuild the tension statics
+    ng = maps.weights_group
+    if ng is None or maps.material is None:
+        return
+    layout = [ex.map_index - 1 for ex in maps.expressions]
+    k = n_maps(maps)
+    if not mapgroup.weights_layout_matches(ng, layout, k):
+        mapgroup.build_weights(ng, [ex.name for ex in maps.expressions], layout, k)
+        mapgroup.ensure_blend_group(k)
+        rebind = True
+    for e, ex in enumerate(maps.expressions):
+        node = ng.nodes.get(mapgroup.expr_node(e))
+        if node is not None and node.label != ex.name[:60]:
+            node.label = ex.name[:60]
+    problems = _bind(face, ng) if rebind else _problems.get(face.session_uid, {})
+    manual = [ex.value if ex.source == "MANUAL" else (0.0 if e in problems else None)
+              for e, ex in enumerate(maps.expressions)]
+    mapgroup.set_weights(ng, table(maps), manual, maps.zone_strength, maps.zone_power, k)
+    if maps.weight_mode != "TENSION":
+        mapgroup.set_tension(ng, [0.0] * N_ZONES)
+    _wire(face)
+
+
+def sync_quietly(face, rebind=False):
+    """``sync`` for property updates: a problem becomes a panel message, not an exception."""
+    try:
+        sync(face, rebind)
+    except mapgroup.MapError as exc:
+        set_status(face, str(exc))
+    else:
+        set_status(face, "")
+
+
+# ---------------------------------------------------------------------------------------
+# tension-driven zone weights
+
+
+def wants_tension(face):
+    maps = face.ewrinkles_face.maps
+    return maps.weight_mode == "TENSION" and maps.weights_group is not None and maps.material is not None
+
+
+def tension_key(face):
+    """What the tension statics depend on: the topology, the UV map and the masks."""
+    maps = face.ewrinkles_face.maps
+    return (meshio.topology_key(face.data), mapbake.uv_layer(face).name) + tuple(
+        (m.name, tuple(m.size)) if m is not None else None for m in (maps.mask_a, maps.mask_b))
+
+
+def tension_statics(face):
+    """(rest edge lengths, edges, zone masks at the vertices (V, 8)) for
+    ``core.maps.jimenez.zone_tension``."""
+    maps = face.ewrinkles_face.maps
+    surface = mapbake.Surface(face)
+    vertex_uv = np.zeros((len(surface.rest), 2), np.float32)
+    vertex_uv[surface.tris.ravel()] = surface.uv.reshape(-1, 2)  # a vertex takes one of its corners' UVs
+    vm = np.zeros((len(surface.rest), N_ZONES), np.float32)
+    for i, img in enumerate((maps.mask_a, maps.mask_b)):
+        if img is not None and img.size[0] and img.size[1]:
+            vm[:, 4 * i: 4 * i + 4] = wm.sample_nearest(images.read(img), vertex_uv)
+    return core_mesh.edge_lengths(surface.rest, surface.edges), surface.edges, vm
+
+
+def write_tension(face, values):
+    """Write this frame's tension-driven zone values into the weights group (unless baked)."""
+    ng = face.ewrinkles_face.maps.weights_group
+    if ng is not None and _value_path(mapgroup.tension_node(0)) not in baked_paths(ng):
+        mapgroup.set_tension(ng, values)
+
+
+# ---------------------------------------------------------------------------------------
+# farm-safe bake of the values that need the add-on
+
+
+def bake_weights(face, scene, frame_start, frame_end, progress=None):
+    """Key, frame by frame, the weights-group values that only the add-on can compute:
+    expressions driven by a muscle's contraction (an add-on property, which a farm without
+    the add-on cannot resolve) and the tension-driven zones.  Their drivers are removed
+    while baked.  Shape-key and property drivers stay: they need no add-on.  Returns the
+    number of baked channels."""
+    maps = face.ewrinkles_face.maps
+    ng = maps.weights_group
+    if ng is None:
+        return 0
+    free_weights(face)
+    muscle_rows = [e for e, ex in enumerate(maps.expressions) if ex.source == "MUSCLE" and ex.muscle]
+    nodes = [mapgroup.expr_node(e) for e in muscle_rows]
+    if wants_tension(face):
+        nodes += [mapgroup.tension_node(z) for z in range(N_ZONES)]
+    if not nodes:
+        return 0
+    frames = range(frame_start, frame_end + 1)
+    values = np.zeros((len(frames), len(nodes)), np.float32)
+    current = scene.frame_current
+    for i, frame in enumerate(frames):
+        scene.frame_set(frame)  # drivers, animation and our handler (tension) run
+        dg = bpy.context.evaluated_depsgraph_get()
+        for j, e in enumerate(muscle_rows):
+            values[i, j] = maps.expressions[e].muscle.evaluated_get(dg).ewrinkles_muscle.contraction
+        for j in range(len(muscle_rows), len(nodes)):
+            values[i, j] = ng.nodes[nodes[j]].outputs[0].default_value
+        if progress is not None:
+            progress(i + 1, len(frames))
+    paths = [_value_path(n) for n in nodes]
+    for path, node_name, column in zip(paths, nodes, values.T):
+        ng.driver_remove(path)
+        out = ng.nodes[node_name].outputs[0]
+        for frame, v in zip(frames, column):
+            out.default_value = float(v)
+            out.keyframe_insert("default_value", frame=frame)
+    ng["wrinkle_baked"] = paths
+    scene.frame_set(current)
+    return len(paths)
+
+
+def free_weights(face):
+    """Undo :func:`bake_weights`: drop the keys and bring the drivers back."""
+    ng = face.ewrinkles_face.maps.weights_group
+    baked = baked_paths(ng)
+    if not baked:
+        return
+    ad = ng.animation_data
+    if ad is not None and ad.action is not None:
+        from bpy_extras import anim_utils
+
+        slot = getattr(ad, "action_slot", None)
+        bag = anim_utils.action_get_channelbag_for_slot(ad.action, slot) if slot else ad.action
+        for fc in [fc for fc in bag.fcurves if fc.data_path in baked]:
+            bag.fcurves.remove(fc)
+    del ng["wrinkle_baked"]
+    sync(face, rebind=True)

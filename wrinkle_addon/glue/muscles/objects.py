@@ -1,0 +1,183 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Muscle objects: small wire meshes whose vertices are the muscle's end points.
+
+* Linear muscle: 2 vertices, ``[m_A, m_I]`` (attachment, insertion).
+* Sheet muscle: 4 vertices, ``[m_A1, m_A2, m_I2, m_I1]`` drawn as a quad.
+
+The artist moves, rotates and scales the object with the normal tools, or
+edits single end points in Edit Mode.  They never render.
+"""
+
+import bpy
+import numpy as np
+from mathutils import Matrix, Vector
+
+from ...core.muscles.waters import LINEAR, SHEET, Muscle
+
+COLLECTION_NAME = "Wrinkle Muscles"
+
+
+def active_face(context):
+    """The face an operator acts on: the active object, or the face a selected muscle
+    belongs to (its parent)."""
+    ob = context.active_object
+    if ob is not None and ob.type == "MESH" and ob.ewrinkles_muscle.is_muscle and ob.parent is not None:
+        return ob.parent
+    return ob
+
+
+def world_points(ob):
+    me = ob.data
+    co = np.empty(len(me.vertices) * 3, dtype=np.float64)
+    me.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    mw = np.array(ob.matrix_world, dtype=np.float64)
+    return co @ mw[:3, :3].T + mw[:3, 3]
+
+
+def face_scale(face):
+    """Mean scale of the face object: converts world lengths to its local space."""
+    det = abs(np.linalg.det(np.array(face.matrix_world, dtype=np.float64)[:3, :3]))
+    return float(det ** (1.0 / 3.0)) if det > 1e-30 else 1.0
+
+
+def to_core(muscle_ob, face):
+    """The muscle in the face's local space, as a :class:`core.muscles.Muscle`."""
+    s = muscle_ob.ewrinkles_muscle
+    pts = world_points(muscle_ob)
+    inv = np.array(face.matrix_world.inverted_safe(), dtype=np.float64)
+    pts = pts @ inv[:3, :3].T + inv[:3, 3]
+    scale = face_scale(face)
+    if s.kind == "SHEET":
+        if len(pts) < 4:
+            pts = np.zeros((4, 3))
+        attachment, insertion = pts[[0, 1]], pts[[3, 2]]
+        kind, length, spread, spread_c = SHEET, s.length / scale, s.width / scale, s.width_c / scale
+    else:
+        if len(pts) < 2:
+            pts = np.zeros((2, 3))
+        attachment, insertion = pts[[0]], pts[[1]]
+        kind, length, spread, spread_c = LINEAR, s.radius / scale, s.angle, s.angle_c
+    return Muscle(
+        kind=kind, attachment=attachment, insertion=insertion, length=length, spread=spread,
+        spread_c=spread_c, lambda_w=s.lambda_w, n_wrinkles=s.n_wrinkles, k0=s.k0 / scale,
+        alpha=s.alpha, pull=s.pull, depth=s.depth / scale, wrinkles_only=s.wrinkles_only,
+        fade_ends=s.fade_ends,
+    )
+
+
+def signature(muscle_ob):
+    """Everything static about a muscle, to detect when the cached plan is stale.
+
+    Checked for every muscle on every frame, so it reads the raw inputs of
+    :func:`world_points` (matrix and local points) rather than computing them."""
+    s = muscle_ob.ewrinkles_muscle
+    me = muscle_ob.data
+    co = np.empty(len(me.vertices) * 3, dtype=np.float32)
+    me.attributes["position"].data.foreach_get("vector", co)
+    return (
+        muscle_ob.name, s.kind, np.array(muscle_ob.matrix_world, dtype=np.float64).tobytes(), co.tobytes(),
+        s.radius, s.angle, s.angle_c, s.length, s.width, s.width_c, s.depth, s.lambda_w,
+        s.n_wrinkles, s.k0, s.alpha, s.pull, s.wrinkles_only, s.fade_ends,
+    )
+
+
+def muscle_collection(scene):
+    coll = bpy.data.collections.get(COLLECTION_NAME)
+    if coll is None or coll.library is not None:
+        coll = bpy.data.collections.new(COLLECTION_NAME)
+    if coll.name not in scene.collection.children:
+        scene.collection.children.link(coll)
+    return coll
+
+
+def create(context, face, kind, points, name=None, reach=1.3, depth_factor=0.25, **params):
+    """Create a muscle object from world-space end points and register it on ``face``.
+
+    ``points`` is ``[attachment, insertion]`` for a linear muscle and
+    ``[m_A1, m_A2, m_I2, m_I1]`` for a sheet.  The object's origin is the
+    attachment (its centre for a sheet), so rotating and scaling it behaves
+    naturally.  Unset parameters get defaults sized from the muscle itself: the
+    area of influence reaches ``reach`` times the attachment-insertion distance,
+    and the furrow depth k0 is ``depth_factor`` times the half cycle u.
+    """
+    pts = [Vector(p) for p in points]
+    origin = pts[0] if kind == "LINEAR" else (pts[0] + pts[1]) / 2
+    name = name or ("Muscle" if kind == "LINEAR" else "Sheet Muscle")
+    me = bpy.data.meshes.new(name)
+    local = [p - origin for p in pts]
+    edges = [(0, 1)] if kind == "LINEAR" else [(0, 1), (1, 2), (2, 3), (3, 0)]
+    me.from_pydata([tuple(p) for p in local], edges, [])
+    ob = bpy.data.objects.new(name, me)
+    ob.matrix_world = Matrix.Translation(origin)
+    ob.display_type = "WIRE"
+    ob.show_in_front = True
+    ob.hide_render = True
+    muscle_collection(context.scene).objects.link(ob)
+    s = ob.ewrinkles_muscle
+    s.is_muscle = True
+    s.kind = kind
+    for key, value in params.items():
+        setattr(s, key, value)
+    _size_defaults(s, kind, pts, reach, depth_factor, given=params)
+    if face is not None:
+        face.ewrinkles_face.muscles.add().object = ob
+        if face.type == "MESH":
+            ob.parent = face
+            ob.matrix_parent_inverse = face.matrix_world.inverted()
+    return ob
+
+
+def _size_defaults(s, kind, pts, reach, depth_factor, given=()):
+    """Defaults that give a visible result the first time, scaled to the muscle's size.
+
+    The furrow depth k0 is a fraction of the half cycle u (eq. 6), so wrinkles keep
+    their proportions whatever the size of the face.  Parameters in
+    ``given`` are left as the caller set them.
+    """
+    if kind == "LINEAR":
+        span = (pts[1] - pts[0]).length
+        sizes = {"radius": reach * span}
+    else:
+        a_c, i_c = (pts[0] + pts[1]) / 2, (pts[2] + pts[3]) / 2
+        span = (i_c - a_c).length
+        width = 0.5 * ((pts[1] - pts[0]).length + (pts[2] - pts[3]).length)
+        sizes = {"length": reach * span, "width": width, "width_c": width / 6.0,
+                 "depth": 0.5 * max(width, span)}
+    for key, value in sizes.items():
+        if key not in given:
+            setattr(s, key, value)
+    extent = s.radius if kind == "LINEAR" else s.length
+    u = (1.0 - s.lambda_w) * extent / (2.0 * max(s.n_wrinkles, 1))
+    if "k0" not in given:
+        s.k0 = depth_factor * u
+
+
+def linear_points_at(location, direction, length):
+    d = Vector(direction).normalized()
+    return [Vector(location), Vector(location) + d * length]
+
+
+def sheet_points_at(location, up, across, length, width):
+    up, across = Vector(up).normalized(), Vector(across).normalized()
+    a_c = Vector(location) + up * length * 0.5
+    i_c = Vector(location) - up * length * 0.5
+    half = across * width * 0.5
+    return [a_c - half, a_c + half, i_c + half, i_c - half]
+
+
+def live_muscles(face, in_scene=None):
+    """The face's muscle objects that still exist in a scene (deleted ones are skipped).
+
+    ``in_scene``: the ``session_uid`` of every object of the face's scene, when the
+    caller has them (the per-frame path); ``Object.users_scene`` scans every scene
+    and costs ~6 us per muscle."""
+    out = []
+    for ref in face.ewrinkles_face.muscles:
+        ob = ref.object
+        if ob is None or ob.type != "MESH" or not ob.ewrinkles_muscle.is_muscle:
+            continue
+        if not (ob.session_uid in in_scene if in_scene is not None else ob.users_scene):
+            continue
+        out.append(ob)
+    return out

@@ -1,0 +1,118 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The wrinkle-source contract and the live list of sources.
+
+A **wrinkle source** is one method of making wrinkles.  The frame stage, the farm bake
+and the panel loop over :func:`sources`; none of them names a method.  The list is filled
+by ``sources/__init__.py`` (one line per method) when the add-on registers; a test can
+:func:`add` a source of its own and :func:`remove` it again.
+
+Per frame, for each face, the stage (``glue/frame.py``) reads the deformed skin once,
+asks every active source for its :class:`~..core.combine.Contribution`, sums the
+geometric ones through ``core.combine`` and writes the result once, then writes the
+shading values.
+"""
+
+from ..core import combine
+
+
+class MeshArrays:
+    """The face's rest mesh as the stage caches it: ``rest`` (N, 3) float32, ``edges``
+    (E, 2) int32, ``tris`` (T, 3) int64.  Shared read-only by every source."""
+
+    __slots__ = ("rest", "edges", "tris")
+
+    def __init__(self, rest, edges, tris):
+        self.rest, self.edges, self.tris = rest, edges, tris
+
+
+class WrinkleSource:
+    """The contract.  Subclass it, override what applies, and add one line to
+    ``sources/__init__.py``.
+
+    * ``name``: a unique id (the status channel, the panel section); ``label``: its heading.
+    * ``geometric``: the source moves the skin (offsets and heights), so it runs only on
+      faces with wrinkles enabled (the *Wrinkles* modifier); otherwise it gives only
+      shading values and runs on any face it is :meth:`active` on.
+    * ``properties``: ``((attribute, PropertyGroup class), ...)`` hung on the face's
+      settings (``Object.ewrinkles_face.<attribute>``) while the source is registered
+      (``sources.add``).
+    """
+
+    name = ""
+    label = ""
+    geometric = True
+    properties = ()
+
+    # --- per frame -------------------------------------------------------------------
+    def active(self, face):
+        """Whether the source has work on ``face`` this frame (cheap: every frame)."""
+        return False
+
+    def static_key(self, face, in_scene):
+        """A value that changes whenever :meth:`build`'s result would (cheap: every frame).
+        ``in_scene``: the ``session_uid`` of every object of the scene."""
+        return None
+
+    def build(self, face, mesh, in_scene):
+        """The static data (anything) for ``face`` and its :class:`MeshArrays` ``mesh``.  A
+        geometric source's static data has a ``footprint`` (``core.combine.Footprint``)."""
+        return None
+
+    def inputs(self, face, static):
+        """The frame's inputs besides the skin (e.g. contractions), to skip unchanged
+        frames; must support ``==``.  Default: none."""
+        return ()
+
+    def contribute(self, face, static, skin):
+        """This frame's :class:`core.combine.Contribution` for the skin ``skin`` (N, 3)."""
+        return combine.Contribution()
+
+    def write_shading(self, face, static, name, values):
+        """Write one of the contribution's ``shading`` values (its ``attributes`` are
+        written by the stage as point attributes)."""
+
+    def problems(self, face, static):
+        """A message for the panel about the static data (e.g. a muscle without effect)."""
+        return ""
+
+    # --- farm bake ---------------------------------------------------------------------
+    def bake(self, face, scene, frame_start, frame_end, progress):
+        """Bake what a farm without the add-on cannot compute and the geometry cache does not
+        hold (the stage's Alembic cache holds every geometric contribution).  Returns a
+        line for the report, or ""."""
+        return ""
+
+    def bakes(self, face):
+        """Whether :meth:`bake` has anything to do on ``face``."""
+        return False
+
+    def has_bake(self, face):
+        """Whether ``face`` holds a bake of this source that :meth:`free_bake` can undo."""
+        return False
+
+    def free_bake(self, face):
+        """Undo :meth:`bake`."""
+
+    # --- panel -------------------------------------------------------------------------
+    def draw(self, layout, context, face):
+        """Draw the source's part of the face panel."""
+
+
+_sources = []
+
+
+def sources():
+    return tuple(_sources)
+
+
+def add(source):
+    """Put ``source`` in the list.  Raises ValueError on a duplicate name.  (``sources.add``
+    also registers its face properties.)"""
+    if any(s.name == source.name for s in _sources):
+        raise ValueError(f"a wrinkle source named {source.name!r} is already registered")
+    _sources.append(source)
+
+
+def remove(source):
+    if source in _sources:
+        _sources.remove(source)

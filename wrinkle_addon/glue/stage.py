@@ -1,0 +1,180 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The output stage: a Geometry Nodes modifier built in code (docs/architecture.md).
+
+Inside the modifier the incoming position (the deformed skin before any
+wrinkle) is stored as ``wrinkle_skin``; then the vector attribute
+``wrinkle_offset``, computed in NumPy and written onto the original mesh, is
+added to the position.  The frame stage reads ``wrinkle_skin`` back from the
+evaluated mesh, so wrinkles never feed back into the compression they are
+computed from.  The tree needs no Python to evaluate, so saved files render
+without the add-on, with the offset of the frame they were saved on.
+
+Every write of the offsets also writes the frame they belong to (``wrinkle_frame``).
+The tree applies the offsets only on that frame: where the add-on is missing, every other
+frame renders without wrinkles instead of with another frame's (stale) wrinkles.
+"""
+
+import bpy
+import numpy as np
+
+from . import meshio
+from .errors import WrinkleError
+
+GROUP_NAME = "Wrinkle Output"
+MODIFIER_NAME = "Wrinkles"
+SKIN_ATTR = "wrinkle_skin"
+OFFSET_ATTR = "wrinkle_offset"
+FRAME_ATTR = "wrinkle_frame"
+VERSION = 2  # 2: the offsets apply only on the frame they were computed for
+_TOPOLOGY_MODIFIERS = {
+    "SUBSURF", "MULTIRES", "REMESH", "DECIMATE", "TRIANGULATE", "BEVEL", "SOLIDIFY", "MIRROR",
+    "ARRAY", "BOOLEAN", "SKIN", "WELD", "SCREW", "EDGE_SPLIT", "WIREFRAME", "MASK", "BUILD",
+}
+
+
+class StageError(WrinkleError):
+    """A problem with the output stage; the message is shown as is."""
+
+
+def _build_group(ng):
+    ng.interface.clear()
+    ng.nodes.clear()
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = ng.nodes, ng.links
+    gin = nodes.new("NodeGroupInput")
+    gout = nodes.new("NodeGroupOutput")
+    pos = nodes.new("GeometryNodeInputPosition")
+    store = nodes.new("GeometryNodeStoreNamedAttribute")
+    store.data_type = "FLOAT_VECTOR"
+    store.domain = "POINT"
+    store.inputs["Name"].default_value = SKIN_ATTR
+    offset = nodes.new("GeometryNodeInputNamedAttribute")
+    offset.data_type = "FLOAT_VECTOR"
+    offset.inputs["Name"].default_value = OFFSET_ATTR
+    stamp = nodes.new("GeometryNodeInputNamedAttribute")
+    stamp.data_type = "FLOAT"
+    stamp.inputs["Name"].default_value = FRAME_ATTR
+    time = nodes.new("GeometryNodeInputSceneTime")
+    same = nodes.new("FunctionNodeCompare")  # |frame - stamp| <= 0.001: this frame's offsets
+    same.data_type = "FLOAT"
+    same.operation = "EQUAL"
+    same.inputs["Epsilon"].default_value = 0.001
+    gate = nodes.new("ShaderNodeVectorMath")
+    gate.operation = "SCALE"
+    setpos = nodes.new("GeometryNodeSetPosition")
+    links.new(gin.outputs[0], store.inputs["Geometry"])
+    links.new(pos.outputs[0], store.inputs["Value"])
+    links.new(store.outputs[0], setpos.inputs["Geometry"])
+    links.new(time.outputs["Frame"], same.inputs[0])
+    links.new(stamp.outputs["Attribute"], same.inputs[1])
+    links.new(offset.outputs["Attribute"], gate.inputs[0])
+    links.new(same.outputs["Result"], gate.inputs["Scale"])
+    links.new(gate.outputs["Vector"], setpos.inputs["Offset"])
+    links.new(setpos.outputs[0], gout.inputs[0])
+    for i, node in enumerate((gin, pos, store, offset, setpos, gout)):
+        node.location = (200 * i, 0)
+    for i, node in enumerate((time, stamp, same, gate)):
+        node.location = (400 + 200 * (i // 2) + 200 * (i == 3), -200 - 150 * (i % 2))
+    ng["wrinkle_stage_version"] = VERSION
+
+
+def ensure_group():
+    """The shared node group; reused when it exists, refused when linked and read-only."""
+    ng = bpy.data.node_groups.get(GROUP_NAME)
+    if ng is not None and ng.bl_idname != "GeometryNodeTree":
+        raise StageError(f'A node group named "{GROUP_NAME}" exists but is not a Geometry Nodes group; '
+                         "rename it")
+    if ng is not None and ng.get("wrinkle_stage_version") == VERSION:
+        return ng
+    if ng is not None and (ng.library is not None or not ng.is_editable):
+        raise StageError(f'The node group "{GROUP_NAME}" is linked from a library and cannot be '
+                         "edited; make it local")
+    if ng is None:
+        ng = bpy.data.node_groups.new(GROUP_NAME, "GeometryNodeTree")
+    _build_group(ng)
+    return ng
+
+
+def find_modifier(ob):
+    for mod in ob.modifiers:
+        if mod.type == "NODES" and mod.node_group is not None and mod.node_group.name.startswith(GROUP_NAME):
+            return mod
+    return None
+
+
+def ensure_modifier(ob):
+    """Add the stage after the deformers and before the first topology-changing modifier."""
+    mod = find_modifier(ob)
+    if mod is None:
+        mod = ob.modifiers.new(MODIFIER_NAME, "NODES")
+        mod.node_group = ensure_group()
+        mod.show_in_editmode = False
+        index = len(ob.modifiers) - 1
+        for i, other in enumerate(ob.modifiers):
+            if other.type in _TOPOLOGY_MODIFIERS:
+                index = i
+                break
+        if index != len(ob.modifiers) - 1:
+            ob.modifiers.move(len(ob.modifiers) - 1, index)
+    mod.show_viewport = True
+    mod.show_render = True
+    ensure_offset_attribute(ob.data)
+    return mod
+
+
+def order_problem(ob, mod, evaluated_count):
+    """Why the evaluated skin cannot be matched to the mesh's vertices, or ``None``.
+
+    Modifiers before the stage must keep the vertex count; after it, only
+    Subdivision Surface is allowed to add vertices (it keeps the original ones
+    first, see ``meshio.read_vector_prefix``).
+    """
+    n = len(ob.data.vertices)
+    index = list(ob.modifiers).index(mod)
+    active = [m for m in ob.modifiers if m.show_viewport or m.show_render]
+    before = [m for m in active if list(ob.modifiers).index(m) < index and m.type in _TOPOLOGY_MODIFIERS]
+    reorders = (_TOPOLOGY_MODIFIERS | {"NODES"}) - {"SUBSURF"}
+    after = [m for m in active if list(ob.modifiers).index(m) > index and m.type in reorders]
+    if before:
+        return (f'The modifier "{before[0].name}" comes before Wrinkles and changes the vertex count: '
+                "move Wrinkles above it, or apply it")
+    if evaluated_count == n:
+        return None
+    if evaluated_count > n and not after:
+        return None
+    return ("A modifier changes the vertex count: keep the Wrinkles modifier after the deformers "
+            "and before Subdivision Surface, and apply other topology modifiers")
+
+
+def stamp(ob, depsgraph):
+    """Mark the offsets just written as those of ``depsgraph``'s frame (subframe included)."""
+    scene = depsgraph.scene_eval
+    me = ob.data
+    meshio.write_floats(me, FRAME_ATTR, np.full(len(me.vertices), scene.frame_current + scene.frame_subframe,
+                                                np.float32))
+
+
+def ensure_offset_attribute(me):
+    att = me.attributes.get(OFFSET_ATTR)
+    if att is not None and (att.data_type != "FLOAT_VECTOR" or att.domain != "POINT"):
+        me.attributes.remove(att)
+        att = None
+    if att is None:
+        att = me.attributes.new(OFFSET_ATTR, "FLOAT_VECTOR", "POINT")
+    return att
+
+
+def remove(ob):
+    """Remove the modifier and every attribute the add-on stored: the mesh is as before."""
+    mod = find_modifier(ob)
+    if mod is not None:
+        ob.modifiers.remove(mod)
+    me = ob.data
+    for name in (OFFSET_ATTR, SKIN_ATTR, FRAME_ATTR):
+        att = me.attributes.get(name)
+        if att is not None:
+            me.attributes.remove(att)
+    ng = bpy.data.node_groups.get(GROUP_NAME)
+    if ng is not None and ng.users == 0 and ng.library is None:
+        bpy.data.node_groups.remove(ng)

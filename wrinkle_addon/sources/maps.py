@@ -1,0 +1,56 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Animated wrinkle maps (Jimenez, Echevarria, Oat & Gutierrez 2011) as a wrinkle source.
+
+The maps themselves are shaded by the *Wrinkle Map Blend* group; what runs per frame is
+the tension-driven mode, whose 8 zone weights are the skin's measured compression in each
+zone (``core.maps.jimenez.zone_tension``).  Its farm bake keys the weights that a farm
+without the add-on cannot compute."""
+
+from ..core.combine import Contribution
+from ..core.maps import jimenez
+from ..glue.maps import material
+from ..glue.registry import WrinkleSource
+from ..ui import maps as maps_ui
+
+
+class MapSource(WrinkleSource):
+    name = material.CHANNEL
+    label = "Wrinkle Maps"
+    geometric = False
+
+    def active(self, face):
+        return material.wants_tension(face)
+
+    def static_key(self, face, in_scene):
+        return material.tension_key(face)
+
+    def build(self, face, mesh, in_scene):
+        return material.tension_statics(face)
+
+    def inputs(self, face, static):
+        return (float(face.ewrinkles_face.maps.tension_gain),)
+
+    def contribute(self, face, static, skin):
+        rest_length, edges, vertex_masks = static
+        compression = jimenez.vertex_compression(skin, edges, rest_length)
+        values = jimenez.zone_tension(vertex_masks, compression, face.ewrinkles_face.maps.tension_gain)
+        return Contribution(shading={"zone_weights": values})
+
+    def write_shading(self, face, static, name, values):
+        material.write_tension(face, values)
+
+    def bake(self, face, scene, frame_start, frame_end, progress):
+        k = material.bake_weights(face, scene, frame_start, frame_end, progress)
+        return f"{k} wrinkle-map weight channel(s) keyed" if k else ""
+
+    def bakes(self, face):
+        return face.ewrinkles_face.maps.weights_group is not None
+
+    def has_bake(self, face):
+        return bool(material.baked_paths(face.ewrinkles_face.maps.weights_group))
+
+    def free_bake(self, face):
+        material.free_weights(face)
+
+    def draw(self, layout, context, face):
+        maps_ui.draw(layout, context, face)

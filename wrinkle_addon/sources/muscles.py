@@ -1,0 +1,61 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Muscle-driven wrinkles (Zhang, Sim & Tan 2005, on Waters' linear and sheet muscles) as a
+wrinkle source: the muscles' pull and eq. 4's wrinkle height, from ``core.muscles``."""
+
+import numpy as np
+
+from ..core.muscles import system
+from ..glue.muscles import objects
+from ..glue.registry import WrinkleSource
+from ..ui import muscles as muscles_ui
+
+
+class _Static:
+    __slots__ = ("plan", "footprint", "refs", "names")
+
+    def __init__(self, plan, refs, names):
+        self.plan, self.footprint, self.refs, self.names = plan, plan.footprint, refs, names
+
+
+def _live_refs(face, in_scene):
+    """Indices into the face's muscle list of the muscles that still exist in the scene."""
+    live = {m.session_uid for m in objects.live_muscles(face, in_scene)}
+    return [i for i, r in enumerate(face.ewrinkles_face.muscles) if r.object is not None
+            and r.object.session_uid in live]
+
+
+class MuscleSource(WrinkleSource):
+    name = "muscles"
+    label = "Muscles"
+    geometric = True
+
+    def active(self, face):
+        return len(face.ewrinkles_face.muscles) > 0
+
+    def static_key(self, face, in_scene):
+        muscles = objects.live_muscles(face, in_scene)
+        return (np.array(face.matrix_world).tobytes(),) + tuple(objects.signature(m) for m in muscles)
+
+    def build(self, face, mesh, in_scene):
+        refs = _live_refs(face, in_scene)
+        muscles = [face.ewrinkles_face.muscles[i].object for i in refs]
+        core = [objects.to_core(m, face) for m in muscles]
+        plan = system.build_plan(mesh.rest, mesh.edges, mesh.tris, core)
+        return _Static(plan, refs, [m.name for m in muscles])
+
+    def _contraction(self, face, static):
+        refs = face.ewrinkles_face.muscles
+        return np.array([refs[i].object.ewrinkles_muscle.contraction for i in static.refs], np.float64)
+
+    def inputs(self, face, static):
+        return (self._contraction(face, static).tobytes(),)
+
+    def contribute(self, face, static, skin):
+        return system.part(static.plan, skin, self._contraction(face, static), face.ewrinkles_face.strength)
+
+    def problems(self, face, static):
+        found = [f'"{static.names[i]}": {msg}' for i, msg in static.plan.problems]
+        return "Muscle without effect: " + "; ".join(found) if found else ""
+
+    def draw(self, layout, context, face):
+        muscles_ui.draw_face_muscles(layout, context, face)

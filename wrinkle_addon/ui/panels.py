@@ -1,0 +1,45 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The "Wrinkles" sidebar tab's face panel: what every face shares, then one collapsible
+section per wrinkle source (``glue.registry``), each drawn by its source."""
+
+import bpy
+
+from ..glue import bake, frame, registry, status
+from .common import panel_face, status_box
+
+
+class VIEW3D_PT_wrinkle_face(bpy.types.Panel):
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Wrinkles"
+    bl_label = "Face Wrinkles"
+
+    @classmethod
+    def poll(cls, context):
+        return panel_face(context) is not None
+
+    def draw(self, context):
+        layout = self.layout
+        face = panel_face(context)
+        s = face.ewrinkles_face
+        layout.label(text=face.name, icon="OBJECT_DATA")
+        if s.enabled:
+            layout.operator("wrinkle.disable", icon="CANCEL")
+        else:
+            layout.operator("wrinkle.enable", icon="CHECKMARK")
+        status_box(layout, status.get(face, frame.CHANNEL))
+        layout.prop(s, "strength")
+        for source in registry.sources():
+            header, body = layout.panel(f"wrinkle_source_{source.name}", default_closed=not source.geometric)
+            header.label(text=source.label)
+            if body is not None:
+                status_box(body, status.get(face, source.name))
+                source.draw(body, context, face)
+        row = layout.row(align=True)
+        row.operator("wrinkle.bake", icon="FILE_CACHE")
+        if bake.has_any_bake(face):
+            row.operator("wrinkle.free_bake", icon="TRASH")
+
+
+classes = (VIEW3D_PT_wrinkle_face,)
+register, unregister = bpy.utils.register_classes_factory(classes)
