@@ -141,7 +141,7 @@ _AXES = np.array([(0.0, -1.0, 0.0), (0.0, 0.0, 1.0), (1.0, 0.0, 0.0),
 
 
 def _set_key_co(kb, co):
-    if hasattr(kb, "points"):  # the fast path (BLENDER_NOTES.md)
+    if hasattr(kb, "points"):  # the fast path (docs/architecture.md, "Measured Blender facts")
         kb.points.foreach_set("co", co.ravel())
     else:
         kb.data.foreach_set("co", co.ravel())

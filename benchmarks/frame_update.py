@@ -43,7 +43,7 @@ contains:
 ``read_ms`` / ``compute_ms`` / ``write_ms`` (the handler's parts, timed by hand
     with the add-on's handler removed, calling the same functions it calls):
     ``read_ms``: ``meshio.read_vector_prefix`` of ``wrinkle_skin`` from the
-    evaluated mesh.  ``compute_ms``: ``core.system.evaluate``.  ``write_ms``:
+    evaluated mesh.  ``compute_ms``: ``core.muscles.system.evaluate``.  ``write_ms``:
     ``pipeline._write_in_place``: the check that Blender re-evaluated the
     face, the ``foreach_set`` of ``skin + offset`` into the evaluated mesh's
     positions (and its ``wrinkle_offset``), and ``Mesh.update()`` so its
@@ -75,12 +75,12 @@ contains:
     ``len(plan.verts)``: vertices the per-frame NumPy touches (regions, their
     edges' and triangles' vertices and the Waters areas of influence).
 ``compute_tight_loop_ms``
-    ``core.system.evaluate`` called 40 times in a row on one frame's skin: the
+    ``core.muscles.system.evaluate`` called 40 times in a row on one frame's skin: the
     same work as ``compute_ms`` with warm caches and no Blender threads
     around.  ``compute_ms`` (measured right after Blender evaluated the frame)
     is the realistic one.
 ``evaluate_steps_ms``
-    ``core.system.evaluate`` replayed step by step (calling its own parts,
+    ``core.muscles.system.evaluate`` replayed step by step (calling its own parts,
     checked against the real one for equality) to show where its time goes.
 
 Sanity checks printed as it runs: region sizes and bounding boxes per
@@ -271,17 +271,17 @@ class Bench:
         self.scene.frame_set(2)
         self.scene.frame_set(1)
         self.state = pipeline._cache[self.ob.session_uid]
-        plan = self.state.plan
+        plan = self.state.statics["muscles"][1].plan  # the muscle source's static plan
         log(f"  wrinkles on, {len(self.muscles)} muscles, plan built, in {pc() - t:.1f} s; "
             f"region_verts {len(plan.verts)} ({100 * len(plan.verts) / self.n:.1f} %), "
             f"rows {len(plan.row_vert)}, pairs {len(plan.pair_edge)}, edges {plan.edges.shape[1]}, "
-            f"tris {plan.tris.shape[1]}, pull rows {len(plan.pull_vert)}")
+            f"tris {plan.output.tris.shape[1]}, pull rows {len(plan.pull_vert)}")
         if pipeline.status_of(self.ob):
             log(f"  status: {pipeline.status_of(self.ob)}")
         return plan
 
     def region_report(self, plan):
-        rest = self.state.rest
+        rest = self.state.mesh.rest
         live = muscle_objects.live_muscles(self.ob)
         gv = plan.verts[plan.row_vert]
         lm = self.landmarks
@@ -470,7 +470,7 @@ def log_profile(what, rows, call, times=40):
 
 
 def evaluate_steps(plan, skin, contraction, strength, out):
-    """``core.system.evaluate`` split into timed steps, calling its own parts (keep in sync)."""
+    """``core.muscles.system.evaluate`` split into timed steps, calling its own parts (keep in sync)."""
     t = {}
     c = pc()
     s = np.take(np.asarray(skin, dtype=_F), plan.verts, axis=0).T.copy()
@@ -488,12 +488,18 @@ def evaluate_steps(plan, skin, contraction, strength, out):
     height = plan.height_sum.sum(w) * _F(strength)
     t["anisotropic+heights"] = pc() - c
     c = pc()
-    normal = core_mesh.normals_at(pulled, plan.tris, plan.normal_sum)
+    o = plan.output  # the output stage (core.combine) for this plan alone
+    c = pc()
+    s2 = np.take(np.asarray(skin, dtype=_F).reshape(-1), o.flat)
+    total = np.zeros_like(s2)
+    if len(o.offset_index[0]):
+        total[:, o.offset_index[0]] += offset
+    normal = core_mesh.normals_at(s2 + total, o.tris, o.normal_sum)
     t["normals"] = pc() - c
     c = pc()
-    offset[:, plan.height_sum.keys] += height * normal
-    finite = finite and np.isfinite(offset.sum())
-    out[plan.verts] = offset.T
+    total[:, o.height_keys] += height * normal
+    finite = finite and np.isfinite(total.sum())
+    np.put(out.reshape(-1), o.flat, total)
     t["assemble+scatter"] = pc() - c
     assert finite
     return out, t

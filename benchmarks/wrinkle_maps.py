@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Animated wrinkle maps: render cost, bake time and texture memory (issue 3).
+"""Animated wrinkle maps: render cost, bake time and texture memory.
 
 Run:  .venv45/bin/python benchmarks/wrinkle_maps.py   (or .venv52)
       options: --size 256 --samples 16 --rounds 3 --bake 2048

@@ -1,4 +1,4 @@
-"""Bad input gets a clear message, and nothing is lost (issue 2, section 4)."""
+"""Bad input gets a clear message, and nothing is lost."""
 
 import bpy
 import numpy as np
@@ -39,6 +39,25 @@ def test_non_mesh_object_is_refused():
     bpy.context.view_layer.objects.active = curve
     with pytest.raises(RuntimeError, match="not a mesh"):
         bpy.ops.wrinkle.add_muscle()
+    empty = bpy.data.objects.new("Empty", None)
+    bpy.context.scene.collection.objects.link(empty)
+    bpy.context.view_layer.objects.active = empty
+    with pytest.raises(RuntimeError, match='"Empty" is an empty, not a mesh'):
+        bpy.ops.wrinkle.enable()
+
+
+def test_every_check_of_a_face_says_the_same():
+    """One face check: the operators of every method refuse a non-mesh with one message."""
+    empty = bpy.data.objects.new("Empty", None)
+    bpy.context.scene.collection.objects.link(empty)
+    bpy.context.view_layer.objects.active = empty
+    messages = set()
+    for op in (bpy.ops.wrinkle.enable, bpy.ops.wrinkle.bake_wrinkle_map, bpy.ops.wrinkle.generate_masks,
+               bpy.ops.wrinkle.refine, bpy.ops.wrinkle.add_muscle_set):
+        with pytest.raises(RuntimeError) as err:
+            op("EXEC_DEFAULT")
+        messages.add(str(err.value).split("poll() ")[-1].strip())
+    assert messages == {'"Empty" is an empty, not a mesh: select the face mesh'}
 
 
 def test_loose_vertices_zero_length_edges_degenerate_triangles_and_ngons():

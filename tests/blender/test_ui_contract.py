@@ -96,6 +96,9 @@ class _Layout:
     def operator_menu_enum(self, idname, prop, **kw):
         return self.operator(idname)
 
+    def panel(self, idname, **kw):
+        return self, self  # header and body of a collapsible section, both drawn here
+
 
 def test_wrinkle_maps_panel_draws_every_control():
     face = scenes.make_face()

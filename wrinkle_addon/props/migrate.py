@@ -3,8 +3,11 @@
 
 Version 0.2 stored its settings under unprefixed names (``Object.wrinkles``,
 ``Object.wrinkle_muscle``).  On load (and when the add-on is enabled with such a file
-open) each object's stored group is moved to its prefixed name; assigning an ID property
-group deep-copies it, keeping every value, collection item and pointer.  Keyframes and
+open) each object's stored group is copied, key by key, into the property group of its
+prefixed name; assigning an ID property deep-copies it, keeping every value, collection
+item and pointer.  (Blender 5 keeps registered properties apart from the custom
+properties a 4.x file holds them in, so the copy goes through the new property group,
+never through ``ob[new]``.)  Keyframes and
 drivers whose data paths start with an old name are rewritten, including the driver
 variables that read a muscle's contraction.
 """
@@ -79,8 +82,11 @@ def migrate(data=None):
             continue
         for old, new in RENAMES:
             if old in ob.keys():
-                if new not in ob.keys():
-                    ob[new] = ob[old]  # a deep copy of the group
+                group = getattr(ob, new)
+                if not group.keys():  # nothing stored under the new name yet
+                    stored = ob[old]
+                    for key in stored.keys():
+                        group[key] = stored[key]  # a deep copy of each value
                 del ob[old]
                 moved += 1
     if moved:

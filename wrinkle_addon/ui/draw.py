@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Viewport drawing of each muscle's area of influence and wrinkling region.
 
-The outlines come from ``core.outline`` (pure NumPy) in the muscle's face
+The outlines come from ``core.muscles.outline`` (pure NumPy) in the muscle's face
 space and are drawn with the ``gpu`` module in a POST_VIEW handler.  Nothing is
 drawn in background mode.
 """

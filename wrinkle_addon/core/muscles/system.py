@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The per-frame muscle-wrinkle evaluation: a static :class:`Plan`, then :func:`evaluate`.
 
-Per frame (DESIGN.md, "Per-frame evaluation")::
+Per frame (docs/architecture.md, "The frame stage")::
 
     skin      the deformed skin before any wrinkle (shape keys, armature, ...)
     pulled    skin + Waters pull of every contracting muscle

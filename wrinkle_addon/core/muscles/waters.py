@@ -11,7 +11,7 @@ quantities the per-frame evaluation needs:
   amplitude ``H(w) At`` (eqs. 4-7, 12, 15),
 * the unit direction of contraction used to weight edges in eq. 10.
 
-Waters, linear muscle (see ``waters_muscles_notes.md``)::
+Waters, linear muscle (docs/model.md, "Muscles (Waters)")::
 
     p' = p + k a r (v1 - p) / D,   D = |p - v1|
     a  = cos(pi/2 * angle / Omega)                 (0 beyond Omega)
@@ -21,7 +21,7 @@ Waters, linear muscle (see ``waters_muscles_notes.md``)::
 Choices, with reasons:
 
 * ``a = cos(pi/2 * angle/Omega)`` instead of Waters' ``cos(angle)`` cut off at
-  Omega: the notes allow it, and it removes the step where the pull would jump
+  Omega: Waters' own notes allow it, and it removes the step where the pull would jump
   from ``cos(Omega)`` to 0 at the cone's side and tear the skin.  A sheet's
   pull across its width uses eq. 15's profile (flat to h_c, then to 0 at Ws/2).
 * ``Rf`` is Zhang's ``R`` (``Ls`` for a sheet): both papers mean the end of the

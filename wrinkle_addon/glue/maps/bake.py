@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Wrinkle maps and zone masks generated from the face itself (issue 3, section 4).
+"""Wrinkle maps and zone masks generated from the face itself.
 
 * **Bake Wrinkle Map**: the wrinkle height W of the foundation's muscle model (Zhang 2005
-  eq. 4, ``core.system.heights``) per vertex, rasterised in UV space and turned into a
+  eq. 4, ``core.muscles.system.heights``) per vertex, rasterised in UV space and turned into a
   partial-derivative (PD) wrinkle map (Jimenez et al. 2011, §1.2) by ``core.raster``.
 * **Generate Masks**: the 8 zone masks of §1.1 (Table 1.1's zones) from the muscles'
   wrinkling regions or from vertex groups, with soft borders, packed into two RGBA images.
@@ -134,7 +134,7 @@ def bake_height(face, mode, muscles=None, surface=None):
     the face's local units; 0 outside the wrinkling regions.
 
     ``mode`` "MUSCLES": each muscle's fully formed wrinkle, ``H(w) At`` with ``A(eps) = 1``
-    (``core.system.formed_heights``): a wrinkle map holds the expression's wrinkles at full
+    (``core.muscles.system.formed_heights``): a wrinkle map holds the expression's wrinkles at full
     strength, and its animated zone weight plays the part of ``A(eps)``.  (Baking them from
     each muscle's own pull at full contraction gave ``A`` of only 0.15-0.3: the Frontalis
     pulls 8 %, while the ICT head's shape keys compress the forehead by up to 40 %.)  The

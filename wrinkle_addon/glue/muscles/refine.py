@@ -4,7 +4,7 @@
 Zhang refines where the wrinkles need resolution.  Here the criterion is the
 one the wrinkle model sets: every half cycle ``u`` (eq. 6) must span at least
 ``factor`` edge lengths.  The edges that violate it are chosen in NumPy
-(``core.system.refine_edges``); bmesh splits the faces around them, which
+(``core.muscles.system.refine_edges``); bmesh splits the faces around them, which
 interpolates UVs, shape keys, vertex groups and every other attribute, and
 keeps material indices.
 """
