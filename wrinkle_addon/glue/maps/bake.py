@@ -228,6 +228,16 @@ def _padding(resolution):
     return max(2, int(resolution) // 128)
 
 
+def _start(face, resolution, uv_map, progress):
+    """The checked resolution, the progress callback and the face's :class:`Surface`."""
+    R = int(resolution)
+    if not 1 <= R <= 16384:
+        raise BakeError(f"Resolution {R} is out of range (1-16384)")
+    step = progress or (lambda _f, _m: None)
+    step(0.0, "reading the mesh")
+    return R, step, Surface(face, uv_map)
+
+
 def bake_wrinkle_map(face, resolution, mode, uv_map=None, muscles=None, progress=None, smooth=True):
     """The PD wrinkle map (R, R, 4) float32 of ``face`` (see :func:`bake_height` for
     ``mode`` and ``muscles``; ``core.raster.slopes`` for the formula).  The slopes are in
@@ -237,12 +247,7 @@ def bake_wrinkle_map(face, resolution, mode, uv_map=None, muscles=None, progress
     shading of the geometric wrinkles; else finite differences per pixel, which show the
     triangles as facets.  ``progress(fraction, message)`` is called between the steps.
     Raises BakeError."""
-    R = int(resolution)
-    if not 1 <= R <= 16384:
-        raise BakeError(f"Resolution {R} is out of range (1-16384)")
-    step = progress or (lambda _f, _m: None)
-    step(0.0, "reading the mesh")
-    surface = Surface(face, uv_map)
+    R, step, surface = _start(face, resolution, uv_map, progress)
     step(0.05, "wrinkle heights")
     fields, layer, zone_of_layer = bake_layers(face, mode, muscles, surface)
     try:  # in world lengths: a non-uniform object scale changes the slopes
@@ -382,15 +387,10 @@ def group_zones(face, group_names=None):
 
 
 def generate_masks(face, resolution, source, softness, uv_map=None, group_names=None, progress=None):
-    """The two RGBA zone masks (R, R, 4) float32 each (``core.uvmaps.mask_images``) and a
+    """The two RGBA zone masks (R, R, 4) float32 each (``core.maps.uvmaps.mask_images``) and a
     list of notes for the user.  ``softness``: the width of the zone borders, in the face's
     local units (see ``core.raster.diffusion_time``).  Raises BakeError."""
-    R = int(resolution)
-    if not 1 <= R <= 16384:
-        raise BakeError(f"Resolution {R} is out of range (1-16384)")
-    step = progress or (lambda _f, _m: None)
-    step(0.0, "reading the mesh")
-    surface = Surface(face, uv_map)
+    R, step, surface = _start(face, resolution, uv_map, progress)
     notes = []
     if source == "MUSCLES":
         zones = muscle_zones(face, surface)

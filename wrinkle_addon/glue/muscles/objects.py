@@ -17,14 +17,6 @@ from ...core.muscles.waters import LINEAR, SHEET, Muscle
 COLLECTION_NAME = "Wrinkle Muscles"
 
 
-def active_face(context):
-    """The face an operator acts on: the active object, or the face a selected muscle
-    belongs to (its parent)."""
-    ob = context.active_object
-    if ob is not None and ob.type == "MESH" and ob.ewrinkles_muscle.is_muscle and ob.parent is not None:
-        return ob.parent
-    return ob
-
 
 def world_points(ob):
     me = ob.data
