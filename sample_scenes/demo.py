@@ -6,7 +6,8 @@ For each scene (the procedural head, the forehead patch, and, when
 ../shared/data/ict_head.npz exists, the scanned ICT head with geometric wrinkles and again
 with generated wrinkle maps) it saves the .blend, renders each expression frame twice -
 wrinkle strength 0 (the same deformation, no wrinkles) and 1 - and writes
-``out/contact_sheet.png``: one row per scene, each expression as a without/with pair, and
+``out/contact_sheet.png``: one row per scene, each expression as a without/with pair,
+labelled with the scene's name and the expression's (sample_scenes/lib/labels.py), and
 ``out/before_after.png``: Surprise and Frowning of the ICT head (or the procedural head),
 without / with.
 Blender's own render log goes to ``out/render.log``.
@@ -27,8 +28,14 @@ import bpy  # noqa: E402, I001  (bpy first: it makes addon_utils importable)
 import addon_utils  # noqa: E402
 import numpy as np  # noqa: E402
 
+# Enabled before the sample scenes are imported, since they import the add-on's modules:
+# addon_utils.enable() on an add-on that was already imported the ordinary way prints
+# "module changed on disk: ... reloading..." and executes its __init__ a second time.
+if addon_utils.enable("wrinkle_addon", default_set=True) is None:
+    raise SystemExit("demo: the wrinkle_addon add-on did not load (see the message above)")
+
 from sample_scenes import forehead_patch, head, scanned_head, scanned_head_maps  # noqa: E402
-from sample_scenes.lib import scene_setup  # noqa: E402
+from sample_scenes.lib import labels, scene_setup  # noqa: E402
 
 _T0 = time.perf_counter()
 
@@ -76,23 +83,16 @@ def save_rgba(pixels, path):
     bpy.data.images.remove(img)
 
 
-def contact_sheet(rows, path, gap=8):
-    """rows: list of lists of image paths (bottom-up pixel order is handled here)."""
-    tiles = [[load_rgba(p) for p in row] for row in rows]
-    th, tw = tiles[0][0].shape[:2]
-    ncol = max(len(r) for r in tiles)
-    sheet = np.ones(((th + gap) * len(tiles) + gap, (tw + gap) * ncol + gap, 4), np.float32)
-    sheet[..., :3] = 0.12
-    for r, row in enumerate(tiles):
-        y = (th + gap) * (len(tiles) - 1 - r) + gap  # images are stored bottom row first
-        for c, tile in enumerate(row):
-            x = (tw + gap) * c + gap
-            sheet[y:y + th, x:x + tw] = tile[:th, :tw]
-    save_rgba(sheet, path)
+def contact_sheet(rows, path, gap=8, row_names=None, captions=None):
+    """rows: list of lists of image paths. row_names (one per row) and captions (per row, one
+    (expression, "without" / "with") per image) are drawn into the sheet; see
+    sample_scenes/lib/labels.py. Blender's bottom-up pixel order is handled here."""
+    tiles = [[load_rgba(p)[::-1] for p in row] for row in rows]  # top row first
+    save_rgba(labels.sheet(tiles, gap=gap, row_names=row_names, captions=captions)[::-1], path)
 
 
 def geometric_toggle(face, on):
-    face.wrinkles.strength = 1.0 if on else 0.0
+    face.ewrinkles_face.strength = 1.0 if on else 0.0
 
 
 def render_scene(name, builder, out, size, samples, toggle=geometric_toggle):
@@ -102,11 +102,11 @@ def render_scene(name, builder, out, size, samples, toggle=geometric_toggle):
     scene = bpy.context.scene
     scene_setup.setup_cycles(scene, resolution=(size, size), samples=samples)
     log(f"{name}: {len(face.data.vertices)} vertices, "
-        f"{len(face.wrinkles.muscles)} muscles; saving {name}.blend")
+        f"{len(face.ewrinkles_face.muscles)} muscles; saving {name}.blend")
     bpy.ops.wm.save_as_mainfile(filepath=str(out / f"{name}.blend"))
     face = bpy.data.objects[face.name]
     scene = bpy.context.scene
-    row = []
+    row, captions = [], []
     for shot, frame in shots.items():
         for label, on in (("without", False), ("with", True)):
             toggle(face, on)
@@ -118,8 +118,9 @@ def render_scene(name, builder, out, size, samples, toggle=geometric_toggle):
                 bpy.ops.render.render(write_still=True)
             log(f"{name}: {shot} {label} wrinkles -> {path.name} ({time.perf_counter() - t:.1f}s)")
             row.append(path)
+            captions.append((shot, label))
     toggle(face, True)
-    return row
+    return row, captions
 
 
 def main(argv=None):
@@ -134,7 +135,6 @@ def main(argv=None):
         args.size, args.samples = 256, 8
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    addon_utils.enable("wrinkle_addon", default_set=True)
     jobs = [("forehead_patch", forehead_patch.build, geometric_toggle),
             ("head", head.build, geometric_toggle)]
     if scanned_head.available():
@@ -142,12 +142,14 @@ def main(argv=None):
         jobs.append(("scanned_head_maps", scanned_head_maps.build, scanned_head_maps.toggle))
     else:
         log(f"skipping the ICT head: {scanned_head.DATA} not found")
-    rows = []
+    rows, captions = [], []
     for i, (name, builder, toggle) in enumerate(jobs, 1):
         log(f"scene {i}/{len(jobs)}: {name}")
-        rows.append(render_scene(name, builder, out, args.size, args.samples, toggle))
+        row, row_captions = render_scene(name, builder, out, args.size, args.samples, toggle)
+        rows.append(row)
+        captions.append(row_captions)
     sheet = out / "contact_sheet.png"
-    contact_sheet(rows, sheet)
+    contact_sheet(rows, sheet, row_names=[j[0] for j in jobs], captions=captions)
     # README picture: the geometric head's Surprise and Frowning, without / with
     geometric = [r for (name, _b, t), r in zip(jobs, rows) if t is geometric_toggle][-1]
     pick = [p for p in geometric if "surprise" in p.name or "frowning" in p.name]

@@ -15,12 +15,15 @@ tests/blender is skipped as a whole, with the reason, when bpy cannot be importe
 At the end of the session, Blender is reset to factory settings (see ``_shutdown_blender``)
 and pytest's exit status is written to the file named by ``WRINKLE_PYTEST_STATUS``, so
 tools/test.sh can tell "all tests passed, then bpy crashed at interpreter exit" from a
-real failure.
+real failure. Just before it, the counts of passed, failed and skipped tests and the skip
+reasons (grouped, with counts) go to the file named by ``WRINKLE_PYTEST_SUMMARY``, which
+tools/test.sh prints in its summary (see ``_summary_lines``).
 """
 
 from __future__ import annotations
 
 import atexit
+import collections
 import importlib.abc
 import importlib.util
 import os
@@ -97,6 +100,54 @@ def pytest_report_header(config):
     return [f"bpy: located; BLENDER_USER_RESOURCES={USER_RESOURCES}"]
 
 
+# --- Outcome counts for tools/test.sh's summary ------------------------------------------
+_OUTCOMES = collections.Counter()
+_SKIP_REASONS = collections.Counter()
+_OUTCOME_ORDER = ("passed", "failed", "error", "skipped", "xfailed", "xpassed")
+
+
+def _skip_reason(report) -> str:
+    longrepr = report.longrepr
+    reason = longrepr[2] if isinstance(longrepr, tuple) and len(longrepr) == 3 else str(longrepr)
+    reason = reason.removeprefix("Skipped: ").strip()
+    # The shared data folder lives next to the repository: show it as the README names it.
+    return reason.replace(str(ROOT.parent / "shared"), "../shared")
+
+
+def _record(report) -> None:
+    if report.skipped:
+        if hasattr(report, "wasxfail"):
+            _OUTCOMES["xfailed"] += 1
+        else:
+            _OUTCOMES["skipped"] += 1
+            _SKIP_REASONS[_skip_reason(report)] += 1
+    elif report.failed:
+        _OUTCOMES["failed" if report.when == "call" else "error"] += 1
+    elif report.when == "call":
+        _OUTCOMES["xpassed" if hasattr(report, "wasxfail") else "passed"] += 1
+
+
+def pytest_runtest_logreport(report):
+    _record(report)
+
+
+def pytest_collectreport(report):
+    if report.failed:
+        _OUTCOMES["error"] += 1  # a module that cannot be imported, say
+    elif report.skipped:
+        _record(report)  # a whole module or folder skipped (tests/blender without bpy)
+
+
+def _summary_lines() -> list[str]:
+    """'12 passed, 6 skipped' then one line per skip reason, most frequent first."""
+    counts = [f"{_OUTCOMES[k]} {k}{'s' if k == 'error' and _OUTCOMES[k] > 1 else ''}"
+              for k in _OUTCOME_ORDER if _OUTCOMES[k]]
+    lines = [", ".join(counts) if counts else "no tests ran"]
+    for reason, n in sorted(_SKIP_REASONS.items(), key=lambda item: (-item[1], item[0])):
+        lines.append(f"{n} skipped: {reason}")
+    return lines
+
+
 # --- End of session ---------------------------------------------------------------------
 def _shutdown_blender() -> None:
     """Leave Blender in factory state so that the interpreter can exit.
@@ -119,6 +170,12 @@ def pytest_sessionfinish(session, exitstatus):
     try:
         _shutdown_blender()
     finally:
+        summary_file = os.environ.get("WRINKLE_PYTEST_SUMMARY")
+        if summary_file:
+            try:
+                Path(summary_file).write_text("\n".join(_summary_lines()) + "\n")
+            except OSError as exc:  # never let the summary cost the status below
+                print(f"conftest: cannot write {summary_file}: {exc}", file=sys.stderr)
         status_file = os.environ.get("WRINKLE_PYTEST_STATUS")
         if status_file:
             # Written last: anything after this (bpy's own teardown at interpreter exit)

@@ -10,7 +10,9 @@
 #   6. setup .venv52       tools/setup_env.sh 52 (bpy 5.2, Python 3.13); skipped if no 3.13
 #   7. pytest bpy 5.2      tests/ again
 # A failing stage does not stop the later ones (except setup 4.5); the exit status is
-# non-zero if any stage failed.
+# non-zero if any stage failed. For each pytest stage the summary also gives the counts
+# (passed, failed, skipped ...) and every skip reason with its count, as tests/conftest.py
+# records them in $WRINKLE_PYTEST_SUMMARY, so a PASS with skipped tests says why.
 #
 # Why pytest runs under a watchdog (see run_pytest): the bpy module can crash (SIGSEGV,
 # SIGABRT) or hang while the interpreter exits, after every test has passed. Measured
@@ -36,6 +38,7 @@ PYTEST_ARGS=("$@")
 SUMMARY=()
 FAILED=0
 SKIPPED=200 # a stage function returns this when it had nothing to do
+STAGE_DETAILS=() # lines a stage leaves for the summary, under its verdict (run_pytest's counts)
 
 now_ms() { local t=${EPOCHREALTIME/[.,]/}; echo $((t / 1000)); }
 seconds() { printf '%d.%ds' $(($1 / 1000)) $((($1 % 1000) / 100)); }
@@ -59,6 +62,12 @@ run_stage() {
     esac
     echo "== $name: $verdict in $elapsed"
     SUMMARY+=("$(printf '  %-16s %7s  %s' "$verdict" "$elapsed" "$name")")
+    local line
+    for line in "${STAGE_DETAILS[@]}"; do
+        echo "== $name: $line"
+        SUMMARY+=("$(printf '  %-16s %7s    %s' "" "" "$line")")
+    done
+    STAGE_DETAILS=()
     return $rc
 }
 
@@ -76,11 +85,13 @@ PYTEST_PID=
 run_pytest() {
     local python=$1 allow_no_tests=$2
     shift 3
-    local status_file rc recorded ticks=0 ticks_after_status=0 killed=""
+    local status_file summary_file rc recorded ticks=0 ticks_after_status=0 killed="" line
     status_file=$(mktemp "${TMPDIR:-/tmp}/wrinkle-pytest-status.XXXXXX")
+    summary_file=$(mktemp "${TMPDIR:-/tmp}/wrinkle-pytest-summary.XXXXXX")
     : >"$status_file" # empty until tests/conftest.py writes the status
 
-    WRINKLE_PYTEST_STATUS=$status_file "$python" -m pytest "$@" </dev/null &
+    WRINKLE_PYTEST_STATUS=$status_file WRINKLE_PYTEST_SUMMARY=$summary_file \
+        "$python" -m pytest "$@" </dev/null &
     PYTEST_PID=$!
     while kill -0 "$PYTEST_PID" 2>/dev/null; do
         if [[ -s $status_file ]]; then
@@ -101,6 +112,12 @@ run_pytest() {
     PYTEST_PID=
     recorded=$(tr -d '[:space:]' <"$status_file")
     rm -f "$status_file"
+    # Counts and grouped skip reasons, written by tests/conftest.py just before the status.
+    while IFS= read -r line; do
+        [[ -n $line ]] && STAGE_DETAILS+=("$line")
+    done <"$summary_file"
+    ((${#STAGE_DETAILS[@]})) || STAGE_DETAILS+=("no test counts recorded (pytest did not finish)")
+    rm -f "$summary_file"
 
     [[ -n $killed ]] && echo "test.sh: killed the pytest process: $killed."
     if [[ -z $recorded ]]; then
@@ -124,7 +141,6 @@ run_pytest() {
     fi
     return "$rc"
 }
-trap '[[ -n $PYTEST_PID ]] && kill -KILL "$PYTEST_PID" 2>/dev/null; exit 130' INT TERM
 
 core_without_bpy() {
     # tests/core holds no core tests yet in an early tree: pytest's "no tests" is then fine.
@@ -137,6 +153,12 @@ setup52() {
     ((rc == 3)) && return "$SKIPPED" # setup_env.sh: no Python 3.13 here
     return "$rc"
 }
+
+# Sourced (`source tools/test.sh`), define the stages without running them, e.g. to try one:
+#   source tools/test.sh; run_stage "pytest tools" run_pytest .venv45/bin/python no -- tests/tools
+#   printf '%s\n' "${SUMMARY[@]}"
+[[ ${BASH_SOURCE[0]} != "$0" ]] && return 0
+trap '[[ -n $PYTEST_PID ]] && kill -KILL "$PYTEST_PID" 2>/dev/null; exit 130' INT TERM
 
 echo "test.sh: repository $ROOT, CI=${CI:-}, $(nproc) cores"
 run_stage "setup .venv45 (bpy 4.5)" bash tools/setup_env.sh 45 || {

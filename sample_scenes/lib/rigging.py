@@ -3,8 +3,6 @@
 import bpy
 import numpy as np
 
-from wrinkle_addon.glue.muscles import landmarks as operators
-
 LANDMARK_KEYS = ("hairline_center", "glabella", "brow_outer_L", "eye_L", "nose_tip", "mouth_corner_L",
                  "chin", "cheekbone_L")
 
@@ -20,8 +18,11 @@ def wrinkle_face(face, landmarks, wrinkles_only=False, refine=True):
     """Enable wrinkles, add Zhang's ten mirrored muscles from the landmarks, refine."""
     activate(face)
     bpy.ops.wrinkle.enable()
+    # imported here, after the add-on is enabled, so Blender does not reload it
+    from wrinkle_addon.glue.muscles import landmarks as muscle_set
+
     local = {k: np.asarray(landmarks[k], float) for k in LANDMARK_KEYS}
-    muscles = operators.build_muscle_set(bpy.context, face, local)
+    muscles = muscle_set.build_muscle_set(bpy.context, face, local)
     for m in muscles:
         m.ewrinkles_muscle.wrinkles_only = wrinkles_only
     activate(face)
