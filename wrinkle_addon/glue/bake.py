@@ -8,6 +8,12 @@ the live evaluation in the tests).  The bake then adds a stand-in object,
 face, whose Mesh Sequence Cache modifier reads the positions back.  The face
 itself is hidden from renders.  Nothing of this needs the add-on or Python, so
 ``blender -b file.blend -a`` on a farm renders it identically.
+
+The exporter applies the face's whole modifier stack, deformers after the Wrinkles
+modifier included, except a Catmull-Clark Subdivision Surface that is the last modifier
+enabled for renders: that one is written as a subdivision surface instead (measured on
+bpy 4.5 and 5.2).  So the stand-in gets a copy of that modifier only; a copy of a Displace
+or an Armature after the stage would apply it a second time.
 """
 
 import os
@@ -25,8 +31,9 @@ class BakeError(WrinkleError):
 
 
 def _abc_name(name):
-    # Blender's Alembic exporter replaces these characters in object and mesh names
-    return "".join("_" if c in " .:" else c for c in name)
+    # Blender's Alembic exporter replaces these characters in object and mesh names; only a
+    # hint: the stand-in reads the real paths from the written cache (see _object_path)
+    return "".join("_" if c in " .:/" else c for c in name)
 
 
 def has_stage(face):
@@ -48,14 +55,52 @@ def default_path(face):
     return f"//wrinkle_bake/{bpy.path.clean_name(face.name)}.abc"
 
 
+def _left_to_stand_in(face):
+    """The modifier the Alembic exporter does not apply, for the stand-in to apply: a
+    Catmull-Clark Subdivision Surface that is the last modifier enabled for renders (the
+    exporter's own rule, which skips particle systems), or None."""
+    for mod in reversed(face.modifiers):
+        if not mod.show_render or mod.type == "PARTICLE_SYSTEM":
+            continue
+        if mod.type == "SUBSURF" and mod.subdivision_type == "CATMULL_CLARK":
+            return mod
+        return None
+    return None
+
+
+def _problem(face):
+    """Why ``face`` cannot be baked now, or None.  Checked before anything is changed."""
+    # Blender's Alembic exporter stores the .blend's path in the archive's metadata, whose
+    # format reserves ";" and "=": with either anywhere in that path (folder or file name)
+    # it throws and Blender aborts (measured on bpy 4.5 and 5.2; the .abc path is not
+    # concerned).  The user must save elsewhere: nothing here can change that path.
+    reserved = sorted({c for c in bpy.data.filepath if c in ";="})
+    if reserved:
+        chars = " and ".join(f'"{c}"' for c in reserved)
+        return (f"The path of this .blend file contains {chars}, which Blender's Alembic exporter "
+                f"cannot handle (it would crash Blender): save the file in a folder and under a name "
+                f"without {chars}, then bake again")
+    mod = stage.find_modifier(face)
+    if mod is None:
+        return f'"{face.name}" has no Wrinkles modifier: enable wrinkles first'
+    kept = _left_to_stand_in(face)
+    after = list(face.modifiers)[list(face.modifiers).index(mod) + 1:]
+    for other in after:
+        if other.show_render and other.type == "SUBSURF" and other != kept:
+            return (f'The modifier "{other.name}" subdivides the face before other modifiers: '
+                    "to bake, move it to the bottom of the modifier stack")
+    return None
+
+
 def bake(context, face, filepath, frame_start, frame_end):
     """Export ``face`` over the frame range and switch its renders to the cache."""
     if not bpy.data.filepath and filepath.startswith("//"):
         raise BakeError("Save the .blend file first: the bake is written next to it")
     if frame_end < frame_start:
         raise BakeError("The frame range is empty")
-    if stage.find_modifier(face) is None:
-        raise BakeError(f'"{face.name}" has no Wrinkles modifier: enable wrinkles first')
+    why = _problem(face)
+    if why:
+        raise BakeError(why)
     free(face)
     path = bpy.path.abspath(filepath)
     os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
@@ -87,37 +132,68 @@ def bake(context, face, filepath, frame_start, frame_end):
 
 
 def _stand_in(face, filepath):
+    """Add the stand-in reading the cache at ``filepath``; on any failure remove all of it
+    again, so the face is hidden from renders only when the stand-in works."""
     me = face.data.copy()
     me.name = face.data.name + BAKE_SUFFIX
     baked = bpy.data.objects.new(face.name + BAKE_SUFFIX, me)
-    if me.shape_keys is not None:
-        baked.shape_key_clear()
-    for name in (stage.OFFSET_ATTR, stage.SKIN_ATTR):
-        if me.attributes.get(name) is not None:
-            me.attributes.remove(me.attributes[name])
-    for coll in face.users_collection:
-        coll.objects.link(baked)
-    baked.parent = face
-    baked.matrix_parent_inverse.identity()
-    for slot, src in zip(baked.material_slots, face.material_slots):
-        slot.link = src.link
-        slot.material = src.material
-    cache = _open_cache(bpy.path.abspath(filepath))
-    mod = baked.modifiers.new("Wrinkle Bake", "MESH_SEQUENCE_CACHE")
-    mod.cache_file = cache
-    mod.object_path = f"/{_abc_name(face.name)}/{_abc_name(face.data.name)}"
-    mod.read_data = {"VERT"}
-    # modifiers after the Wrinkles stage (Subdivision Surface) still apply on top
-    stage_mod = stage.find_modifier(face)
-    after = list(face.modifiers)[list(face.modifiers).index(stage_mod) + 1:]
-    for src in after:
-        dst = baked.modifiers.new(src.name, src.type)
-        for prop in src.bl_rna.properties:
-            if not prop.is_readonly and prop.identifier not in {"name", "type"}:
-                setattr(dst, prop.identifier, getattr(src, prop.identifier))
+    cache = None
+    try:
+        if me.shape_keys is not None:
+            baked.shape_key_clear()
+        for name in (stage.OFFSET_ATTR, stage.SKIN_ATTR):
+            if me.attributes.get(name) is not None:
+                me.attributes.remove(me.attributes[name])
+        for coll in face.users_collection:
+            coll.objects.link(baked)
+        baked.parent = face
+        baked.matrix_parent_inverse.identity()
+        for slot, src in zip(baked.material_slots, face.material_slots):
+            slot.link = src.link
+            slot.material = src.material
+        cache = _open_cache(bpy.path.abspath(filepath))
+        mod = baked.modifiers.new("Wrinkle Bake", "MESH_SEQUENCE_CACHE")
+        mod.cache_file = cache
+        mod.read_data = {"VERT"}
+        mod.object_path = _object_path(face, cache)
+        # the one modifier the exporter left unapplied (a final Subdivision Surface)
+        src = _left_to_stand_in(face)
+        if src is not None:
+            dst = baked.modifiers.new(src.name, src.type)
+            for prop in src.bl_rna.properties:
+                if not prop.is_readonly and prop.identifier not in {"name", "type"}:
+                    setattr(dst, prop.identifier, getattr(src, prop.identifier))
+    except Exception:
+        bpy.data.objects.remove(baked)
+        if me.users == 0:
+            bpy.data.meshes.remove(me)
+        if cache is not None and cache.users == 0:
+            bpy.data.batch_remove([cache])  # cache_files has no remove()
+        raise
     face.hide_render = True
     face.ewrinkles_face.bake_object = baked
     return baked
+
+
+def _object_path(face, cache):
+    """The path of the face's mesh inside the cache, read from the cache itself.
+
+    The exporter rewrites names (" ", ".", ":" and "/" become "_", and that list is not
+    documented), so the path is not guessed.  ``cache.object_paths`` is filled only once a
+    depsgraph has evaluated a user of the cache (measured on bpy 4.5 and 5.2): the caller
+    has assigned it to the stand-in's modifier, and the depsgraph is evaluated here.  The
+    bake exports the face alone, flattened, so there is one mesh path.
+    """
+    bpy.context.view_layer.update()
+    paths = [p.path for p in cache.object_paths]
+    if len(paths) == 1:
+        return paths[0]
+    guess = f"/{_abc_name(face.name)}/{_abc_name(face.data.name)}"
+    if guess in paths:
+        return guess
+    found = ", ".join(paths[:5]) or "none"
+    raise BakeError(f'The baked cache {cache.filepath} holds no single mesh for "{face.name}" '
+                    f"(paths found: {found}); no stand-in was made, the face renders live")
 
 
 def _open_cache(path):
@@ -127,6 +203,10 @@ def _open_cache(path):
     new = [c for c in bpy.data.cache_files if c not in before]
     if not new:
         raise BakeError(f"Blender could not open the cache {path}")
+    # run without its file browser, the operator leaves the new CacheFile one user that no
+    # data-block holds (measured on bpy 4.5 and 5.2): drop it, so that the modifier holds the
+    # only one and freeing the stand-in frees the CacheFile too
+    new[0].user_clear()
     return new[0]
 
 
@@ -140,6 +220,6 @@ def free(face):
         if me.users == 0:
             bpy.data.meshes.remove(me)
         if cache is not None and cache.users == 0:
-            bpy.data.cache_files.remove(cache)
+            bpy.data.batch_remove([cache])  # cache_files has no remove()
     face.ewrinkles_face.bake_object = None
     face.hide_render = False

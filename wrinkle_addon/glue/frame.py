@@ -1,15 +1,17 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The per-frame evaluator: one per face object, run from a ``frame_change_post`` handler.
+"""The frame stage: one per face object, run from a ``frame_change_post`` handler.
 
-Per frame, for every face with wrinkles enabled:
+Per frame, for every face on which a wrinkle source is active (docs/architecture.md):
 
-1. read the deformed skin ``wrinkle_skin`` from the evaluated mesh (shape keys,
+1. read the deformed skin once: ``wrinkle_skin`` from the evaluated mesh (shape keys,
    armature and other deformers, before our own offset - no feedback);
-2. rebuild the cached static plan only if the topology, the rest positions or
-   a muscle's geometry or parameters changed (compared by signature, so undo,
-   drivers and animated parameters are all handled);
-3. evaluate the muscles in NumPy (``core.system.evaluate``);
-4. write the result, in one of two ways:
+2. rebuild a source's cached static data only when its ``static_key`` changes (the
+   topology, the rest positions, a muscle's geometry or parameters: compared by value, so
+   undo, drivers and animated parameters are all handled), and the combined plan of the
+   geometric sources only when one of theirs changes;
+3. ask every active source for its contribution (``glue.registry``) and sum them
+   (``core.combine``): the tangential offsets, plus every height along one skin normal;
+4. write the result once, in one of two ways, then the sources' shading values:
 
    * **write-back** (renders, exports, interactive edits): ``foreach_set`` the
      offsets into the original mesh's ``wrinkle_offset`` and tag it.  Blender
@@ -20,10 +22,14 @@ Per frame, for every face with wrinkles enabled:
      write ``skin + offset`` straight into the evaluated mesh of the depsgraph
      that is being updated, and tell that mesh its positions changed so its
      normals are recomputed.  No second evaluation: a frame costs Blender's own
-     evaluation plus this handler.  Used only when the evaluated mesh was
-     re-evaluated for this frame (so its draw cache is rebuilt from our data)
-     and has exactly the base vertices (no CPU subdivision after the stage);
-     otherwise the frame falls back to write-back.
+     evaluation plus this handler.  Used only when no modifier shown in the
+     viewport follows the Wrinkles modifier but a final Subdivision Surface (a
+     deformer after it - Displace, Smooth, Armature - moves the points again,
+     and writing over its result would drop its effect; ``stage.output_is_final``),
+     when the evaluated mesh was re-evaluated for this frame (so its draw cache
+     is rebuilt from our data) and has exactly the base vertices (no CPU
+     subdivision); otherwise the frame falls back to write-back, which is always
+     right since Blender then evaluates the whole stack again.
 
    Render and export depsgraphs are always written back (measured: every
    render and Alembic frame calls ``frame_change_post`` with a RENDER-mode
@@ -219,7 +225,7 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
     geometric = [(s, c) for s, c in zip(active, contributions) if s.geometric]
     plan = _plan(state, [s for s, _c in geometric], statics)
     out = combine.combine(plan, skin, [c for _s, c in geometric], out=state.out)
-    if not (in_place and _write_in_place(state, ev, skin, out)):
+    if not (in_place and stage.output_is_final(ob, mod) and _write_in_place(state, ev, skin, out)):
         meshio.write_vectors(me, stage.OFFSET_ATTR, out)
         stage.stamp(ob, depsgraph)
         me.update_tag()

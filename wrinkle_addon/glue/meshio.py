@@ -40,14 +40,21 @@ def write_vectors(me, name, values):
     _attr(me, name).data.foreach_set("vector", np.ascontiguousarray(values, dtype=np.float32).reshape(-1))
 
 
-def write_floats(me, name, values):
-    """Write a point float attribute, creating it (or replacing one of another type)."""
+def point_attribute(me, name, data_type):
+    """The point attribute ``name`` of type ``data_type`` ("FLOAT", "FLOAT_VECTOR"), created,
+    or replacing an attribute of that name with another type or domain."""
     att = me.attributes.get(name)
-    if att is not None and (att.data_type != "FLOAT" or att.domain != "POINT"):
+    if att is not None and (att.data_type != data_type or att.domain != "POINT"):
         me.attributes.remove(att)
         att = None
     if att is None:
-        att = me.attributes.new(name, "FLOAT", "POINT")
+        att = me.attributes.new(name, data_type, "POINT")
+    return att
+
+
+def write_floats(me, name, values):
+    """Write a point float attribute, creating it if needed."""
+    att = point_attribute(me, name, "FLOAT")
     att.data.foreach_set("value", np.ascontiguousarray(values, dtype=np.float32).reshape(-1))
 
 

@@ -147,6 +147,23 @@ def order_problem(ob, mod, evaluated_count):
             "and before Subdivision Surface, and apply other topology modifiers")
 
 
+def output_is_final(ob, mod):
+    """Whether the positions the stage ``mod`` outputs are the face's final ones in the
+    viewport, so the frame stage may write them into the evaluated mesh itself.
+
+    True when no modifier shown in the viewport comes after the stage, except a final
+    Subdivision Surface: run on the CPU it changes the vertex count, and the in-place
+    write refuses that mesh anyway; with GPU subdivision the evaluated mesh keeps the base
+    vertices and is subdivided when drawn, so it is the stage's output (not measurable on
+    the test machines, which have no GPU).  Any other later modifier (a deformer such as
+    Displace, Smooth, Corrective Smooth or Armature, a node group) may move the points, and
+    writing over its result would throw its effect away.
+    """
+    mods = list(ob.modifiers)
+    after = [m for m in mods[mods.index(mod) + 1:] if m.show_viewport]
+    return not after or (len(after) == 1 and after[0].type == "SUBSURF")
+
+
 def stamp(ob, depsgraph):
     """Mark the offsets just written as those of ``depsgraph``'s frame (subframe included)."""
     scene = depsgraph.scene_eval
@@ -156,13 +173,7 @@ def stamp(ob, depsgraph):
 
 
 def ensure_offset_attribute(me):
-    att = me.attributes.get(OFFSET_ATTR)
-    if att is not None and (att.data_type != "FLOAT_VECTOR" or att.domain != "POINT"):
-        me.attributes.remove(att)
-        att = None
-    if att is None:
-        att = me.attributes.new(OFFSET_ATTR, "FLOAT_VECTOR", "POINT")
-    return att
+    return meshio.point_attribute(me, OFFSET_ATTR, "FLOAT_VECTOR")
 
 
 def remove(ob):
