@@ -9,7 +9,16 @@ put the repository root on sys.path; it skips this directory when bpy is missing
 * ``factory_reset`` (autouse): an empty factory scene before every test, add-on kept.
 * ``tmp_blend``: ``tmp_blend("name")`` -> a ``.blend`` path in the test's tmp_path.
 * ``render_small``: ``render_small(scene, path, size=64, samples=4)`` renders a small
-  Cycles CPU image and returns its pixels.
+  Cycles CPU image and returns its pixels (a test that uses it is marked ``render``).
+
+The ``render`` marker (pytest.ini) is kept honest here: a handler on
+``bpy.app.handlers.render_init`` counts the renders of each test (every render job, still
+or animation, Cycles or EEVEE, through ``render_small`` or ``bpy.ops.render.render``),
+from its fixtures' setup to the end of its body. After the body, a test that rendered
+without ``@pytest.mark.render`` fails, and so does one marked render that never rendered,
+so that ``-m "not render"`` (the fast tier) leaves out exactly the tests that render. A
+render in a child process is not seen: a test that renders only there takes
+``@pytest.mark.render(subprocess=True)``, which skips the second check.
 
 Reset finding (measured on bpy 4.5.4 and 5.2.3, background mode):
 ``bpy.ops.wm.read_factory_settings(use_empty=True)`` also resets the preferences, and that
@@ -69,6 +78,58 @@ def disable_addon() -> None:
     addon_utils.disable(ADDON, default_set=True, handle_error=lambda ex: errors.append(_format(ex)))
     if errors or addon_utils.check(ADDON)[1]:
         pytest.fail(f"disabling the add-on {ADDON!r} failed:\n" + "\n".join(errors), pytrace=False)
+
+
+# --- The render marker ---------------------------------------------------------------------
+_renders: list[str] = []  # scene names, one per render job of the running test
+
+
+def _count_render(scene, *_args):
+    _renders.append(getattr(scene, "name", "?"))
+
+
+if bpy is not None:
+    # persistent: kept across the file loads of factory_reset and of the tests
+    _count_render = bpy.app.handlers.persistent(_count_render)
+
+
+def render_marker_problem(item, renders) -> str | None:
+    """Why ``item``'s render marker does not match the ``renders`` it made, or None."""
+    marker = item.get_closest_marker("render")
+    if renders and marker is None:
+        return (f"{item.nodeid} rendered ({len(renders)} render job(s), scene(s) "
+                f"{sorted(set(renders))}) but is not marked @pytest.mark.render; mark it, so "
+                "that -m 'not render' leaves it out of the fast tier")
+    if marker is not None and not renders and not marker.kwargs.get("subprocess"):
+        return (f"{item.nodeid} is marked @pytest.mark.render but rendered nothing; drop the "
+                "marker (or use @pytest.mark.render(subprocess=True) if it renders in a child process)")
+    return None
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_setup(item):
+    _renders.clear()
+    if _count_render not in bpy.app.handlers.render_init:
+        bpy.app.handlers.render_init.append(_count_render)
+    return (yield)
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_call(item):
+    result = yield  # a failure or skip of the test itself propagates from here unchanged
+    problem = render_marker_problem(item, _renders)
+    if problem:
+        pytest.fail(problem, pytrace=False)
+    return result
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_teardown(item, nextitem):
+    try:
+        return (yield)
+    finally:
+        if _count_render in bpy.app.handlers.render_init:
+            bpy.app.handlers.render_init.remove(_count_render)
 
 
 @pytest.fixture(scope="session", autouse=True)

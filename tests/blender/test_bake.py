@@ -36,6 +36,7 @@ FARM_SCRIPT = textwrap.dedent("""
 """)
 
 
+@pytest.mark.render
 def test_bake_renders_without_the_addon(tmp_path):
     scene, face = scenes.animated_render_scene(3)
     truth_pos, truth_img = {}, {}

@@ -5,7 +5,9 @@ import sys
 import addon_utils
 import bpy
 import numpy as np
+import pytest
 
+from tests.blender import conftest as harness
 from tests.blender.conftest import ADDON
 from tests.conftest import USER_RESOURCES
 
@@ -42,6 +44,7 @@ def test_disabled_addon_is_re_enabled_2():
     assert addon_utils.check(ADDON) == (True, True)
 
 
+@pytest.mark.render
 def test_render_small(render_small, tmp_path):
     scene = bpy.context.scene
     bpy.ops.mesh.primitive_plane_add(size=1.0)
@@ -71,3 +74,30 @@ def test_tmp_blend_save_and_reload(tmp_blend):
     bpy.ops.wm.open_mainfile(filepath=str(path))
     assert [ob.name for ob in bpy.data.objects] == ["Cube"]
     assert addon_utils.check(ADDON) == (True, True)
+
+
+class _Item:
+    """Enough of a pytest item for ``render_marker_problem``."""
+
+    nodeid = "test_x.py::test_x"
+
+    def __init__(self, mark=None):
+        self.mark = mark
+
+    def get_closest_marker(self, name):
+        return self.mark if name == "render" else None
+
+
+def test_render_marker_must_match_the_renders():
+    plain, marked = _Item(), _Item(pytest.mark.render.mark)
+    assert harness.render_marker_problem(plain, []) is None
+    assert "not marked @pytest.mark.render" in harness.render_marker_problem(plain, ["Scene"])
+    assert harness.render_marker_problem(marked, ["Scene", "Scene"]) is None
+    assert "rendered nothing" in harness.render_marker_problem(marked, [])
+    assert harness.render_marker_problem(_Item(pytest.mark.render(subprocess=True).mark), []) is None
+
+
+def test_renders_are_counted_during_every_test():
+    # the handler of this very module object: the hooks and this test see the same list
+    assert harness._count_render in bpy.app.handlers.render_init
+    assert harness._renders == []

@@ -34,6 +34,7 @@ def _render(plane, render_small, tmp_path, base, maps, mask_a, mask_b, weights, 
 
 
 @pytest.mark.parametrize("difference", [False, True], ids=["pd", "difference"])
+@pytest.mark.render
 def test_cycles_normals_match_the_numpy_reference(render_small, tmp_path, difference):
     rng = np.random.default_rng(3)
     plane = mapscenes.plane_scene(SIZE)
@@ -46,6 +47,7 @@ def test_cycles_normals_match_the_numpy_reference(render_small, tmp_path, differ
     assert err < 1e-4, err
 
 
+@pytest.mark.render
 def test_zone_clamp_and_a_third_map(render_small, tmp_path):
     """Weights of 5 and 1 give the same picture (clamp); a third map is honoured."""
     rng = np.random.default_rng(5)
@@ -99,6 +101,7 @@ def _eevee_render(scene, path, size):
     return px.reshape(size, size, 4)[..., :3]
 
 
+@pytest.mark.render
 def test_eevee_normals_match_the_numpy_reference(tmp_path):
     """EEVEE runs on Mesa's llvmpipe here (no GPU), about 1-2 s for 8 x 8.  A probe
     renders a constant emission first, so a machine whose OpenGL cannot shade at all

@@ -42,6 +42,7 @@ def _forehead_face(rng, keys=("browInnerUp_L", "browDown_L"), cuts=0):
     return face, map_a, mask_a, mask_b
 
 
+@pytest.mark.render
 def test_surprise_plus_anger_smooths_the_forehead(render_small, tmp_path):
     """Jimenez et al. Fig. 1.5: anger's negative forehead weights cancel surprise's."""
     rng = np.random.default_rng(0)
@@ -72,6 +73,7 @@ def test_surprise_plus_anger_smooths_the_forehead(render_small, tmp_path):
     assert dev_both[:half].max() < 0.3 * dev_surprise[:half].max() + 1e-3
 
 
+@pytest.mark.render
 def test_uvs_outside_the_0_1_square_get_no_wrinkles(render_small, tmp_path):
     """The masks cover the 0-1 UV square: UVs in another tile (the ICT head's back of the
     head lies at u 1-2) must not wrap around onto the face's zones."""
@@ -94,6 +96,7 @@ def test_uvs_outside_the_0_1_square_get_no_wrinkles(render_small, tmp_path):
     assert np.abs(outside - flat).max() < 1e-5
 
 
+@pytest.mark.render
 def test_a_wrinkle_uv_map_other_than_the_render_one_gets_its_own_tangents(render_small, tmp_path):
     """The shared group's Normal Map node uses the render-active UV map; a face whose maps
     live on another UV map gets a Normal Map node of that map, so its tangents match."""
@@ -123,6 +126,7 @@ def test_a_wrinkle_uv_map_other_than_the_render_one_gets_its_own_tangents(render
     assert wrinklemaps.NORMAL_NODE not in mat.node_tree.nodes
 
 
+@pytest.mark.render
 def test_a_third_map_from_its_panel_slot(render_small, tmp_path):
     """Maps 3-8 have slots too: an image in Wrinkle Map 3 is wired into the group's Map 3
     and carries the expressions whose Map is 3."""
@@ -150,6 +154,7 @@ def test_a_third_map_from_its_panel_slot(render_small, tmp_path):
     assert np.abs(got - on_map_1).max() > 0.01  # the third map's wrinkles, not the first's
 
 
+@pytest.mark.render
 def test_twenty_expressions_times_eight_zones(render_small, tmp_path):
     """Every zone sums 20 driven expressions: no expression-length limit, exact sums,
     per-zone strength and response curve."""
@@ -193,6 +198,7 @@ def no_autorun():
     prefs.use_scripts_auto_execute = old
 
 
+@pytest.mark.render
 def test_drivers_render_in_a_file_reopened_without_python_or_addon(render_small, tmp_path, tmp_blend,
                                                                   no_autorun):
     rng = np.random.default_rng(2)
@@ -226,6 +232,7 @@ def test_drivers_render_in_a_file_reopened_without_python_or_addon(render_small,
     assert np.abs(got1 - wm.encode(wm.normalize(wm.decode(FLAT)))).max() < 1e-5
 
 
+@pytest.mark.render
 def test_negative_and_large_weights_are_clamped_per_zone(render_small, tmp_path):
     rng = np.random.default_rng(4)
     face, map_a, mask_a, mask_b = _forehead_face(rng, keys=())
@@ -308,6 +315,7 @@ def test_bad_input_is_refused_and_leaves_the_material_unchanged(case, tmp_path):
     assert match in wrinklemaps.check(face)
 
 
+@pytest.mark.render
 def test_tension_mode_follows_the_measured_compression_in_renders(render_small, tmp_path):
     """Zone weights from the skin's compression, frame by frame, in background renders:
     a shape key squashes the plane along v by 30 % on frame 3, not on frame 1."""
@@ -355,6 +363,7 @@ def test_tension_mode_follows_the_measured_compression_in_renders(render_small, 
     assert np.abs(px.reshape(SIZE, SIZE, 4)[..., :3] - want3).max() < 1e-4
 
 
+@pytest.mark.render
 def test_muscle_driven_weights_bake_for_a_farm_without_the_addon(render_small, tmp_path, tmp_blend,
                                                                  no_autorun):
     """A muscle's contraction is an add-on property: the bake keys the expression value,

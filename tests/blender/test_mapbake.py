@@ -1,4 +1,4 @@
-"""Wrinkle maps and masks generated from the face itself (issue 3, section 4)."""
+"""Wrinkle maps and masks generated from the face itself."""
 
 from pathlib import Path
 

@@ -1,4 +1,4 @@
-"""The per-frame pipeline: frame accuracy, exact restore, survival, drivers (DESIGN.md)."""
+"""The per-frame stage: frame accuracy, exact restore, survival, drivers (docs/architecture.md)."""
 
 import bpy
 import numpy as np
@@ -28,6 +28,7 @@ def animated_scene():
     return scenes.animated_render_scene(4)
 
 
+@pytest.mark.render
 def test_background_renders_are_frame_accurate(animated_scene, tmp_path):
     scene, face = animated_scene
     truth = {}

@@ -1,4 +1,4 @@
-"""UV-space baking (issue 3, section 4): rasteriser, padding, PD slopes, zone masks."""
+"""UV-space baking: rasteriser, padding, PD slopes, zone masks."""
 
 import tracemalloc
 
