@@ -2,10 +2,10 @@
 """Image pixels in and out of Blender for the wrinkle maps of Jimenez et al. 2011, §1.2.
 
 Thin glue around ``image.pixels.foreach_get/foreach_set`` on contiguous float32 buffers;
-the maths is in ``core/wrinkle_maps.py``.  Arrays are ``(H, W, 4)`` float32 in Blender's
+the maths is in ``core/maps/jimenez.py``.  Arrays are ``(H, W, 4)`` float32 in Blender's
 row order (row 0 is the bottom row of the picture).
 
-Measured on bpy 4.5.4 and 5.2.3 (see BLENDER_NOTES.md, "Images"):
+Measured on bpy 4.5.4 and 5.2.3 (docs/architecture.md, "Measured Blender facts"):
 
 * ``pixels`` of an 8-bit (byte) image are the stored values / 255 whatever its colour
   space tag; an sRGB tag does NOT linearise them.  A 16-bit PNG or an EXR is held as
@@ -16,6 +16,11 @@ Measured on bpy 4.5.4 and 5.2.3 (see BLENDER_NOTES.md, "Images"):
   operators warn about it (``colour_warning``).
 * Changing the colour space of a generated image regenerates it (its pixels are lost),
   and of a file image reloads it: ``store`` sets the colour space before the pixels.
+  Assigning the colour space it already has does the same, and so does changing the
+  alpha mode of an image with unsaved changes (painted, or filled from Python), which
+  is reloaded from its file or its packed copy.  Packing first keeps the pixels: a
+  packed image reloads what was packed.  ``tag_as_data`` tags images the user made
+  without losing their pixels.
 * A generated image is lost on save unless it is packed and has a user: ``store`` packs
   it (byte images pack as 8-bit PNG, float ones as 32-bit float EXR, both lossless) and
   gives it a fake user.
@@ -148,6 +153,41 @@ def read(image):
         finally:
             cs.name = tag
     return _pixels(image)
+
+
+def _buffer(image):
+    buf = np.empty(len(image.pixels), dtype=np.float32)
+    image.pixels.foreach_get(buf)
+    return buf
+
+
+def tag_as_data(image, alpha_mode=None):
+    """Tag ``image`` Non-Color (and set its ``alpha_mode`` if given) keeping its pixels.
+
+    For images the user made in Blender (a mask painted on a new image), whose pixels
+    live only in memory.  A generated image is packed first (its pixels are kept, and it
+    survives saving the file, as ``store`` does with its own); a tag is assigned only
+    when it differs, since even the same colour space regenerates or reloads the image
+    (see the module notes); and an image with unsaved changes gets its pixels back after
+    the reload.  Returns True if the image was packed.
+    """
+    packed = False
+    if image.source == "GENERATED" and image.packed_file is None:
+        image.pack()  # keeps the pixels (measured); a later reload reads the packed copy
+        packed = True
+    cs = image.colorspace_settings
+    change_cs = cs.name != NON_COLOR
+    change_alpha = alpha_mode is not None and image.alpha_mode != alpha_mode
+    if not (change_cs or change_alpha):
+        return packed
+    kept = _buffer(image) if image.is_dirty else None
+    if change_cs:
+        cs.name = NON_COLOR
+    if change_alpha:
+        image.alpha_mode = alpha_mode
+    if kept is not None and len(image.pixels) == len(kept):
+        image.pixels.foreach_set(kept)  # the reload read the file or the packed copy
+    return packed
 
 
 def _rgba(pixels):

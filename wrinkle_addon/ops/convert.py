@@ -7,8 +7,11 @@
 * ``wrinkle.make_difference_map``: base + wrinkle normal maps -> difference map
   d = 0.5 + 0.5 (w - b) (§1.2.1).
 
-The maths is ``core.wrinkle_maps``; pixels go through ``images``.  Results are Non-Color
-images packed into the .blend, or written to a file the image then points at.
+The maths is ``core.maps.jimenez``; pixels go through ``images``.  Results are Non-Color
+images packed into the .blend, or written to a file the image then points at.  A source
+pixel that is not finite (NaN or an infinity, e.g. in an EXR) becomes the neutral value of
+its encoding (``replace_non_finite``: a flat normal, zero slopes), so the result is
+finite everywhere, and the operator warns with the number of such pixels.
 """
 
 import bpy
@@ -95,6 +98,8 @@ class _MapOperator:
     # Set by subclasses.
     suffix = ""
     verb = ""
+    flat = wrinkle_maps.FLAT_NORMAL  # what a source pixel that is not finite becomes
+    flat_label = ""
 
     source_props = ("source",)
 
@@ -146,7 +151,12 @@ class _MapOperator:
         except images.ImageError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
+        pixels, n_bad = wrinkle_maps.replace_non_finite(pixels, self.flat)
         result = _by_rows(context, f"{self.verb} {srcs[-1].name}", self.compute, pixels)
+        if n_bad:
+            self.report({"WARNING"}, f"{n_bad} pixel{'s were' if n_bad > 1 else ' was'} not finite "
+                                     f"(NaN or infinity) and {'were' if n_bad > 1 else 'was'} "
+                                     f"replaced by {self.flat_label}")
         float_buffer = any(im.is_float for im in srcs) or bool(self.filepath and self.file_format != "PNG_8")
         image = images.store(out_name, result, float_buffer=float_buffer)
         for im in srcs:
@@ -180,6 +190,7 @@ class WRINKLE_OT_convert_to_derivative(_MapOperator, bpy.types.Operator):
 
     suffix = "PD"
     verb = "converting"
+    flat_label = "a flat normal (0.5, 0.5, 1): zero slopes (0.5, 0.5, 0) in the result"
 
     def sources(self):
         return [("Normal map", self.source)]
@@ -202,6 +213,8 @@ class WRINKLE_OT_convert_to_normal(_MapOperator, bpy.types.Operator):
 
     suffix = "Normal"
     verb = "converting"
+    flat = wrinkle_maps.FLAT_DERIVATIVE
+    flat_label = "zero slopes (0.5, 0.5): a flat normal (0.5, 0.5, 1) in the result"
 
     def sources(self):
         return [("Derivative map", self.source)]
@@ -229,6 +242,8 @@ class WRINKLE_OT_make_difference_map(_MapOperator, bpy.types.Operator):
 
     suffix = "Diff"
     verb = "differencing"
+    flat_label = ("a flat normal (0.5, 0.5, 1) in both maps: no difference (0.5, 0.5, 0.5) "
+                  "in the result")
 
     def sources(self):
         return [("Base normal map", self.base), ("Wrinkle normal map", self.wrinkle)]

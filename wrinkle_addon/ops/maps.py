@@ -49,7 +49,12 @@ class WRINKLE_OT_setup_wrinkle_maps(bpy.types.Operator):
     @guarded
     def execute(self, context):
         face = _face(context)
-        mat = wrinklemaps.setup(face)
+        packed = []
+        mat = wrinklemaps.setup(face, packed=packed)
+        if packed:
+            names = ", ".join(f'"{n}"' for n in packed)
+            self.report({"INFO"}, f"Packed {names} into the .blend file, so the pixels made in "
+                                  "Blender are kept (as data, Non-Color) and saved with it")
         maps = face.ewrinkles_face.maps
         if maps.mask_a is None and maps.mask_b is None:
             self.report({"WARNING"}, f'Wrinkle maps wired into "{mat.name}", but there are no masks '

@@ -2,6 +2,8 @@
 """Properties of the animated wrinkle maps (Jimenez et al. 2011): the material binding,
 the expression table and the zones, at ``Object.ewrinkles_face.maps``."""
 
+import math
+
 import bpy
 from bpy.props import (
     BoolProperty,
@@ -27,6 +29,35 @@ def _bindings_update(self, context):
     from ..glue.maps import material as wrinklemaps
 
     wrinklemaps.sync_quietly(self.id_data, rebind=True)
+
+
+def _restore_finite(owner, name, default):
+    """Put ``default`` back where the float (or float vector) property ``name`` holds NaN.
+
+    A FloatProperty's min and max clamp infinities to the float range but let NaN
+    through, and a NaN here would reach every zone weight in the shader.  Returns True if
+    something was restored (the assignment runs the property's update again)."""
+    value = getattr(owner, name)
+    if isinstance(value, float):
+        if math.isfinite(value):
+            return False
+        setattr(owner, name, default)
+        return True
+    values = list(value)
+    if all(math.isfinite(v) for v in values):
+        return False
+    setattr(owner, name, [v if math.isfinite(v) else d for v, d in zip(values, default)])
+    return True
+
+
+def _finite(name, default, then=None):
+    """An update callback that keeps the property ``name`` finite, then runs ``then``."""
+
+    def update(self, context):
+        if not _restore_finite(self, name, default) and then is not None:
+            then(self, context)
+
+    return update
 
 
 class WrinkleMapExpression(bpy.types.PropertyGroup):
@@ -75,7 +106,7 @@ class WrinkleMapExpression(bpy.types.PropertyGroup):
         name="Value",
         description="The expression's value when its source is Manual (animatable)",
         default=0.0, soft_min=0.0, soft_max=1.0,
-        update=_maps_update,
+        update=_finite("value", 0.0, _maps_update),
     )
     map_index: IntProperty(
         name="Map",
@@ -88,7 +119,7 @@ class WrinkleMapExpression(bpy.types.PropertyGroup):
         description="Weight of this expression in each of the 8 mask zones; negative weights "
         "cancel other expressions (Jimenez et al. 2011, Table 1.1)",
         size=8, default=(0.0,) * 8, min=-4.0, max=4.0, soft_min=-1.0, soft_max=1.0,
-        update=_maps_update,
+        update=_finite("weights", (0.0,) * 8, _maps_update),
     )
 
 
@@ -163,7 +194,7 @@ class WrinkleMapSettings(bpy.types.PropertyGroup):
         name="Strength",
         description="Overall strength of the wrinkle maps",
         default=1.0, min=0.0, soft_max=2.0,
-        update=_maps_update,
+        update=_finite("strength", 1.0, _maps_update),
     )
     difference: BoolProperty(
         name="Difference Maps",
@@ -186,14 +217,14 @@ class WrinkleMapSettings(bpy.types.PropertyGroup):
         name="Zone Strength",
         description="Gain on each zone's weight after the clamp",
         size=8, default=(1.0,) * 8, min=0.0, max=2.0,
-        update=_maps_update,
+        update=_finite("zone_strength", (1.0,) * 8, _maps_update),
     )
     zone_power: FloatVectorProperty(
         name="Zone Response",
         description="Response curve of each zone: the clamped weight is raised to this power "
         "(below 1 wrinkles come early, above 1 late)",
         size=8, default=(1.0,) * 8, min=0.25, max=2.0,
-        update=_maps_update,
+        update=_finite("zone_power", (1.0,) * 8, _maps_update),
     )
     weight_mode: EnumProperty(
         name="Weights",
@@ -212,6 +243,7 @@ class WrinkleMapSettings(bpy.types.PropertyGroup):
         description="Zone weight per unit of mean edge shrinkage in the zone: 5 makes 20 % "
         "compression a full-strength wrinkle",
         default=5.0, min=0.0, soft_max=20.0,
+        update=_finite("tension_gain", 5.0),
     )
     weights_group: PointerProperty(
         name="Weights Group",

@@ -24,6 +24,8 @@ The blend (Listing 1.1, with more than one wrinkle map and per-map zone weights)
 Everything here works on arrays of any leading shape ``(..., C)``.
 """
 
+import math
+
 import numpy as np
 
 N_ZONES = 8
@@ -67,6 +69,40 @@ ZONE_OF_ROLE = {
     "NASALIS": (6, 6),
     "MENTALIS": (7, 7),
 }
+
+
+# Neutral pixels of the encodings: a flat normal, zero slopes, no difference.  A pixel
+# that is not finite (NaN or an infinity) in a source map stands for one of these.
+FLAT_NORMAL = (0.5, 0.5, 1.0)  # standard normal map: n = (0, 0, 1)
+FLAT_DERIVATIVE = (0.5, 0.5)  # PD map, R and G: n' = (0, 0)
+FLAT_DIFFERENCE = (0.5, 0.5, 0.5)  # difference map: w = b
+
+
+def replace_non_finite(maps, flat):
+    """Give every pixel that is not finite the neutral value ``flat``.
+
+    ``maps`` are arrays (..., C) of the same leading shape, the inputs of one conversion;
+    only their first ``len(flat)`` channels (those the conversion reads) are looked at.  A
+    pixel that holds a NaN or an infinity there in any of the maps is set to ``flat`` in
+    all of them, so that it converts to the neutral output (a flat normal map gives a
+    flat PD map and no difference, a flat PD map a flat normal).  Returns the cleaned
+    maps (float32 copies; the inputs themselves when all is finite) and the number of
+    such pixels.
+    """
+    k = len(flat)
+    maps = [np.asarray(m, np.float32) for m in maps]
+    bad = np.zeros(maps[0].shape[:-1], bool)
+    for m in maps:
+        bad |= ~np.isfinite(m[..., :k]).all(axis=-1)
+    n = int(bad.sum())
+    if n == 0:
+        return maps, 0
+    cleaned = []
+    for m in maps:
+        m = m.copy()
+        m[bad, :k] = np.asarray(flat, np.float32)
+        cleaned.append(m)
+    return cleaned, n
 
 
 def decode(c):
@@ -179,13 +215,20 @@ def zone_tension(vertex_masks, compression, gain=1.0):
 
     ``vertex_masks`` (V, 8) the zone masks at the vertices, ``compression`` (V,) the
     measured skin compression (edge shrinkage, >= 0 where the skin is compressed).
-    ``clamp(gain * sum_v m_zv c_v / sum_v m_zv, 0, 1)``; 0 for an empty zone.
+    ``clamp(gain * sum_v m_zv c_v / sum_v m_zv, 0, 1)``; 0 for an empty zone.  Always
+    finite: a non-finite ``gain`` (NaN or an infinity, e.g. from a crafted file or an
+    F-curve) counts as 0, no tension wrinkles, and so do NaN masks.
     """
     m = np.asarray(vertex_masks, np.float32).reshape(-1, N_ZONES)
+    m = np.nan_to_num(m, nan=0.0, posinf=0.0, neginf=0.0)
     c = np.nan_to_num(np.asarray(compression, np.float32).ravel())
+    g = float(gain)
+    g = g if math.isfinite(g) else 0.0
     total = m.sum(axis=0)
-    mean = (c @ m) / np.where(total > 0, total, 1.0)
-    return np.clip(gain * np.where(total > 0, mean, 0.0), 0.0, 1.0).astype(np.float32)
+    with np.errstate(over="ignore", invalid="ignore"):
+        mean = (c @ m) / np.where(total > 0, total, 1.0)
+        out = np.clip(g * np.where(total > 0, mean, 0.0), 0.0, 1.0)
+    return np.nan_to_num(out, nan=0.0).astype(np.float32)
 
 
 def vertex_compression(skin, edges, rest_length):

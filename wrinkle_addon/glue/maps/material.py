@@ -2,12 +2,14 @@
 """Wrinkle maps on a face material: wiring, the expression table and its drivers.
 
 ``setup`` checks everything first and changes nothing when something is wrong; then it
-puts the ``Wrinkle Map Blend`` group (:mod:`mapgroup`) in front of the Principled BSDF's
+puts the ``Wrinkle Map Blend`` group (:mod:`nodegroups`) in front of the Principled BSDF's
 normal input, feeds it the base map, wrinkle maps and masks, and feeds its zone inputs
 from the face's ``Wrinkle Weights`` group.  ``sync`` keeps that group in step with the
 table in ``Object.ewrinkles_face.maps``: each expression's value comes from a driver with one
 variable (type AVERAGE, no Python expression) reading its source, a shape key, a muscle's
-contraction or any property.
+contraction or any property, made by the add-on's one driver builder (``glue.drivers``,
+which escapes shape-key names).  Custom properties read back from the file (the previous
+normal link, the baked paths) are validated: anything malformed counts as absent.
 """
 
 import bpy
@@ -16,8 +18,8 @@ import numpy as np
 from ...core import mesh as core_mesh
 from ...core.maps import jimenez as wm
 from ...core.maps.jimenez import N_ZONES
+from .. import drivers, images, meshio
 from .. import frame as frame_stage
-from .. import images, meshio
 from .. import status as status_store
 from . import bake as mapbake
 from . import nodegroups as mapgroup
@@ -162,8 +164,12 @@ def _existing_base(nt, bsdf):
     return None
 
 
-def setup(face, material=None):
-    """Wire the wrinkle maps into the face material.  Raises MapError, changing nothing."""
+def setup(face, material=None, packed=None):
+    """Wire the wrinkle maps into the face material.  Raises MapError, changing nothing.
+
+    Every image is tagged as data (Non-Color; masks also Channel Packed) without losing
+    pixels that live only in memory (``images.tag_as_data``): the names of the generated
+    images this packed into the .blend are appended to the list ``packed``, if given."""
     why = check(face, material)
     if why:
         raise MapError(why)
@@ -199,9 +205,11 @@ def setup(face, material=None):
             continue
         node = _node(nt, name, "ShaderNodeTexImage", (x - 850, y - 250 - 280 * i))
         node.image = img
-        img.colorspace_settings.name = "Non-Color"  # every one of them is data
-        if prop.startswith("mask"):
-            img.alpha_mode = "CHANNEL_PACKED"  # the alpha is zone 4 / 8, not coverage
+        # every one of them is data; a mask's alpha is zone 4 / 8, not coverage
+        mask = prop.startswith("mask")
+        if images.tag_as_data(img, "CHANNEL_PACKED" if mask else None) and packed is not None:
+            packed.append(img.name)
+        if mask:
             # no zone outside the 0-1 square: UVs in other tiles (the ICT head's back of
             # the head) would otherwise wrap around onto the face's zones
             node.extension = "CLIP"
@@ -241,6 +249,23 @@ def _wire(face):
     blend.inputs["Difference Maps"].default_value = 1.0 if maps.difference else 0.0
 
 
+def _strings(value):
+    """``value`` read from a file as a list of strings, or None if it is anything else.
+
+    Custom properties come from the file as they were saved, so a crafted or damaged file
+    can hold any type under our names: only a list (or tuple) of str is taken."""
+    if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+        return None
+    return list(value)
+
+
+def _previous_normal(blend):
+    """(node name, socket identifier) of the link that fed the BSDF's normal before the
+    wrinkle maps, as ``setup`` stored it on the blend node; [] if absent or malformed."""
+    prev = _strings(blend.get("wrinkle_previous_normal")) if blend is not None else None
+    return prev if prev is not None and len(prev) == 2 else []
+
+
 def remove(face):
     """Take the wrinkle maps out of the material and restore its previous normal link."""
     maps = face.ewrinkles_face.maps
@@ -248,7 +273,7 @@ def remove(face):
     if mat is not None and mat.node_tree is not None:
         nt = mat.node_tree
         blend = nt.nodes.get(BLEND_NODE)
-        prev = list(blend.get("wrinkle_previous_normal", [])) if blend is not None else []
+        prev = _previous_normal(blend)
         for name in _OURS:
             node = nt.nodes.get(name)
             if node is not None:
@@ -278,7 +303,7 @@ def _target(face, ex):
             return "pick a shape key"
         if keys is None or ex.shape_key not in keys.key_blocks:
             return f'"{face.name}" has no shape key "{ex.shape_key}"'
-        return ("KEY", keys, f'key_blocks["{bpy.utils.escape_identifier(ex.shape_key)}"].value')
+        return ("KEY", keys, drivers.shape_key_path(ex.shape_key))
     if ex.source == "MUSCLE":
         if ex.muscle is None:
             return "pick a muscle"
@@ -301,7 +326,10 @@ def _value_path(node_name):
 
 
 def baked_paths(ng):
-    return set(ng.get("wrinkle_baked", [])) if ng is not None else set()
+    """The data paths of the weights group that ``bake_weights`` keyed; empty if there are
+    none or what the file holds is not a list of strings."""
+    paths = _strings(ng.get("wrinkle_baked")) if ng is not None else None
+    return set(paths or ())
 
 
 def _bind(face, ng):
@@ -319,14 +347,10 @@ def _bind(face, ng):
         if target is None:
             continue
         id_type, ident, data_path = target
-        drv = ng.driver_add(path).driver
-        drv.type = "AVERAGE"  # one variable, no expression: evaluates without Python
-        var = drv.variables.new()
-        var.name = "value"
-        var.type = "SINGLE_PROP"
-        var.targets[0].id_type = id_type
-        var.targets[0].id = ident
-        var.targets[0].data_path = data_path
+        try:  # type AVERAGE, one variable, no expression: evaluates without Python
+            drivers.drive(ng, path, id_type, ident, data_path)
+        except ValueError as exc:
+            problems[e] = str(exc)
     _problems[face.session_uid] = problems
     return problems
 

@@ -15,13 +15,13 @@ partial derivative in the shader so artists keep their base map; ``Difference Ma
 or 1) picks §1.2.1's difference maps instead of PD maps.  The result goes through a
 Normal Map node (tangent space of the render-active UV map) to the ``Normal`` output;
 the ``Color`` output is its input, for a Normal Map node of another UV map.
-:func:`core.wrinkle_maps.blend` is the NumPy reference; a Cycles test compares them.
+:func:`core.maps.jimenez.blend` is the NumPy reference; a Cycles test compares them.
 
 ``Wrinkle Weights <face>`` (one per face) turns the expression values into the zone
 inputs: it holds one Value node per expression (driven by its source) and the table as
 Math nodes, ``strength_z * clamp(sum_e value_e * weight_ez, 0, 1) ** power_z`` per map
 and zone.  Why in the shader and not in driver expressions: a sum over 20 expressions
-overflows Blender's 255-character expression limit (CC/iC Blender Tools issue #388), and
+overflows Blender's 255-character expression limit (CC/iC Blender Tools ran into it), and
 chained drivers depend on evaluation order.  Here every driver has one variable and no
 expression, so it evaluates with Python auto-run off, the table has no size limit, and
 Cycles folds the whole network to 8 K constants before rendering (every input is a
@@ -74,9 +74,11 @@ def map_count(ng):
 
 
 def _ensure_interface(ng, n_maps):
-    """Add missing sockets only, so links from materials that use the group survive."""
+    """Add missing sockets only, so links from materials that use the group survive.
+    Returns how many were added."""
     have = _inputs(ng)
     outputs = {s.name for s in ng.interface.items_tree if s.item_type == "SOCKET" and s.in_out == "OUTPUT"}
+    added = ("Normal" not in outputs) + ("Color" not in outputs)
     if "Normal" not in outputs:
         s = ng.interface.new_socket("Normal", in_out="OUTPUT", socket_type="NodeSocketVector")
         s.description = "The blended normal, through a Normal Map node of the render-active UV map"
@@ -107,6 +109,8 @@ def _ensure_interface(ng, n_maps):
             s = _new_input(ng, name, kind, default, lo, hi, desc)
             if name in ("Difference Maps", "Mask A Alpha", "Mask B Alpha"):
                 s.subtype = "FACTOR"
+            added += 1
+    return added
 
 
 class _Builder:
@@ -175,7 +179,8 @@ class _Builder:
 
 
 def _by_id(sockets, identifier):
-    """ShaderNodeMix has sockets with duplicate names: pick by identifier (BLENDER_NOTES)."""
+    """ShaderNodeMix has sockets with duplicate names: pick by identifier
+    (docs/architecture.md, "Measured Blender facts")."""
     return next(s for s in sockets if s.identifier == identifier)
 
 
@@ -251,12 +256,14 @@ def ensure_blend_group(n_maps=2):
     """The shared ``Wrinkle Map Blend`` group with at least ``n_maps`` maps.
 
     An existing group is reused: missing sockets are added (existing links stay) and its
-    inside is rebuilt only when it lacks maps or was built by another version.
+    inside is rebuilt only when it lacks maps or sockets (deleted by hand, or a crafted
+    file whose version tag lies) or was built by another version.
     """
     ng = bpy.data.node_groups.get(BLEND_GROUP)
     if ng is not None:
         _check_editable(ng)
-        if ng.get("wrinkle_map_version") == VERSION and map_count(ng) >= n_maps:
+        if (ng.get("wrinkle_map_version") == VERSION and map_count(ng) >= n_maps
+                and not _ensure_interface(ng, map_count(ng))):
             return ng
     else:
         ng = bpy.data.node_groups.new(BLEND_GROUP, "ShaderNodeTree")
@@ -337,7 +344,20 @@ def build_weights(ng, names, map_of_expression, n_maps):
 
 
 def weights_layout_matches(ng, map_of_expression, n_maps):
-    return ng.get("wrinkle_layout") == _layout_key(n_maps, map_of_expression)
+    """Whether ``ng`` is the weights group :func:`build_weights` makes for this layout.
+
+    The tag is read from the file, so the nodes that :func:`set_weights` writes are
+    checked too: a group whose nodes were deleted by hand (or whose tag was crafted) is
+    rebuilt rather than trusted."""
+    if ng.get("wrinkle_layout") != _layout_key(n_maps, map_of_expression):
+        return False
+    nodes = ng.nodes
+    names = [expr_node(e) for e in range(len(map_of_expression))]
+    names += [tension_node(z) for z in range(N_ZONES)]
+    names += [f"{kind} {k} {z}" for kind in ("Power", "Strength")
+              for k in range(n_maps) for z in range(N_ZONES)]
+    names += [weight_node(e, z) for e in range(len(map_of_expression)) for z in range(N_ZONES)]
+    return all(name in nodes for name in names)
 
 
 def set_weights(ng, table, manual_values, zone_strength, zone_power, n_maps):
