@@ -236,7 +236,7 @@ def test_background_progress_lines(capfd):
     images.store("Face", _normal_map(16))
     bpy.ops.wrinkle.convert_to_derivative(source="Face")
     out = capfd.readouterr().out
-    assert "Wrinkles: converting Face 1/8" in out and "Wrinkles: converting Face 8/8" in out
+    assert "Expression Wrinkles: converting Face: 1/8" in out and "converting Face: 8/8 100%" in out
 
 
 def _direct(cls, **props):

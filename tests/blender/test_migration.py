@@ -84,3 +84,15 @@ def test_migration_is_idempotent_and_leaves_new_files_alone(tmp_path):
     face = scenes.make_face()
     face.ewrinkles_face.strength = 2.0
     assert migrate.migrate() == 0 and face.ewrinkles_face.strength == 2.0
+
+
+def test_crafted_old_values_do_not_stop_the_migration(tmp_path):
+    face = _open_v02(tmp_path)
+    odd = scenes.make_face("Odd", shape_key=False)
+    odd["wrinkles"] = 5  # not a group: dropped, and the other objects still migrate
+    odd["wrinkle_muscle"] = "text"
+    face["wrinkles"] = {"strength": 0.5}
+    face.ewrinkles_face.strength = 2.0  # already migrated: the new value wins
+    assert migrate.migrate() == 3
+    assert "wrinkles" not in odd.keys() and "wrinkle_muscle" not in odd.keys()
+    assert face.ewrinkles_face.strength == 2.0

@@ -20,6 +20,8 @@ from bpy.props import EnumProperty, StringProperty
 
 from ..core.maps import jimenez as wrinkle_maps
 from ..glue import images
+from ..glue.progress import Progress
+from .common import guarded
 
 N_CHUNKS = 8
 
@@ -45,21 +47,15 @@ def _by_rows(context, label, fn, arrays):
     h = arrays[0].shape[0]
     bounds = np.linspace(0, h, min(N_CHUNKS, h) + 1).astype(int)
     n = len(bounds) - 1
-    wm = context.window_manager
-    wm.progress_begin(0, n)
     out = None
-    try:
+    with Progress(context, label, total=n) as progress:
         for i in range(n):
             a, b = bounds[i], bounds[i + 1]
             part = fn(*(x[a:b] for x in arrays))
             if out is None:
                 out = np.empty((h,) + part.shape[1:], dtype=np.float32)
             out[a:b] = part
-            wm.progress_update(i + 1)
-            if bpy.app.background:
-                print(f"Wrinkles: {label} {i + 1}/{n}", flush=True)
-    finally:
-        wm.progress_end()
+            progress(i + 1, f"rows {a}-{b}")
     return out
 
 
@@ -138,6 +134,7 @@ class _MapOperator:
             raise images.ImageError("The output file path is relative to the .blend file, which is "
                                     "not saved yet: save it first or give an absolute path")
 
+    @guarded
     def execute(self, context):
         try:
             srcs = [self._image(label, name) for label, name in self.sources()]

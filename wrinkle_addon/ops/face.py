@@ -42,7 +42,7 @@ class WRINKLE_OT_disable(bpy.types.Operator):
 
     remove_muscles: BoolProperty(
         name="Delete Muscles",
-        description="Also delete this face's muscle objects and forget its settings (muscles "
+        description="Also delete this face's muscle objects and empty its muscle list (muscles "
         "linked from a library are kept)",
         default=False,
     )

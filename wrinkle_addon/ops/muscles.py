@@ -293,8 +293,11 @@ class WRINKLE_OT_drive_contraction(bpy.types.Operator):
             raise WrinkleError("The gain must be a finite number")
         if muscle.library is not None:
             raise WrinkleError(f'"{muscle.name}" is linked and read-only')
-        drivers.drive(muscle, "ewrinkles_muscle.contraction", "KEY", keys,
-                      drivers.shape_key_path(self.shape_key), gain=self.gain)
+        try:
+            drivers.drive(muscle, "ewrinkles_muscle.contraction", "KEY", keys,
+                          drivers.shape_key_path(self.shape_key), gain=self.gain)
+        except ValueError as exc:
+            raise WrinkleError(str(exc)) from None
         return {"FINISHED"}
 
 

@@ -60,6 +60,7 @@ def _rewrite_paths(data):
         if idb.library is not None:
             continue
         for fc in idb.animation_data.drivers:
+            before = count
             new = _new_path(fc.data_path)
             if new:
                 fc.data_path = new
@@ -70,6 +71,9 @@ def _rewrite_paths(data):
                     if new:
                         target.data_path = new
                         count += 1
+            if count != before:  # the load marked it invalid under its old path: check it again
+                fc.is_valid = True
+                fc.driver.is_valid = True
     return count
 
 
@@ -83,10 +87,13 @@ def migrate(data=None):
         for old, new in RENAMES:
             if old in ob.keys():
                 group = getattr(ob, new)
-                if not group.keys():  # nothing stored under the new name yet
-                    stored = ob[old]
+                stored = ob[old]
+                if not group.keys() and hasattr(stored, "keys"):  # a group, and nothing new yet
                     for key in stored.keys():
-                        group[key] = stored[key]  # a deep copy of each value
+                        try:
+                            group[key] = stored[key]  # a deep copy of each value
+                        except (TypeError, ValueError):  # a value of no known type: dropped
+                            print(f"Expression Wrinkles: {ob.name}: could not keep {old}.{key}")
                 del ob[old]
                 moved += 1
     if moved:

@@ -18,7 +18,7 @@ import numpy as np
 from ...core import mesh as core_mesh
 from ...core.maps import jimenez as wm
 from ...core.maps.jimenez import N_ZONES
-from .. import drivers, images, meshio
+from .. import drivers, faces, images, meshio
 from .. import frame as frame_stage
 from .. import status as status_store
 from . import bake as mapbake
@@ -98,13 +98,10 @@ def _image_problem(label, img, square=True, alpha=False):
 
 def check(face, material=None):
     """Why wrinkle maps cannot be set up on ``face`` (a message), or None."""
-    if face is None or face.type != "MESH":
-        return "Select a face mesh"
+    why = faces.problem(face, polygons=False, uv=True)
+    if why:
+        return why
     me = face.data
-    if face.library is not None or me.library is not None:
-        return f'"{face.name}" is linked and read-only'
-    if len(me.uv_layers) == 0:
-        return f'"{face.name}" has no UV map: wrinkle maps need UVs'
     maps = face.ewrinkles_face.maps
     if maps.uv_map and maps.uv_map not in me.uv_layers:
         return f'"{face.name}" has no UV map named "{maps.uv_map}"'
