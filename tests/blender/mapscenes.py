@@ -111,18 +111,25 @@ def random_normal_map(rng, size, max_slope=0.35):
     return 0.5 + 0.5 * n
 
 
-def skin_plane(size, mask_a, mask_b, map_a, base=None, keys=(), cuts=0):
-    """The plane with a Principled "Skin" material, shape keys ``keys`` (at 0) and the
-    wrinkle-map images set on ``plane.ewrinkles_face.maps`` (not wired yet)."""
+def principled_plane(size, keys=(), cuts=0):
+    """The plane with a Principled "Skin" material and shape keys ``keys`` (at 0), active."""
     plane = plane_scene(size, cuts)
     mat = bpy.data.materials.new("Skin")
-    mat.use_nodes = True
+    if mat.node_tree is None:  # bpy 4.x; 5.x materials always have nodes
+        mat.use_nodes = True
     plane.data.materials.append(mat)
     if keys:
         plane.shape_key_add(name="Basis")
         for k in keys:
             plane.shape_key_add(name=k).value = 0.0
     bpy.context.view_layer.objects.active = plane
+    return plane
+
+
+def skin_plane(size, mask_a, mask_b, map_a, base=None, keys=(), cuts=0):
+    """The plane with a Principled "Skin" material, shape keys ``keys`` (at 0) and the
+    wrinkle-map images set on ``plane.ewrinkles_face.maps`` (not wired yet)."""
+    plane = principled_plane(size, keys, cuts)
     maps = plane.ewrinkles_face.maps
     maps.mask_a = data_image("Mask A", mask_a)
     maps.mask_b = data_image("Mask B", mask_b)

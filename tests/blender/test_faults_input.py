@@ -34,17 +34,7 @@ def _painted(name, float_buffer, seed):
 
 def _skin_plane(keys=()):
     """The plane with a Principled material and no wrinkle-map images yet."""
-    plane = mapscenes.plane_scene(SIZE)
-    mat = bpy.data.materials.new("Skin")
-    if mat.node_tree is None:  # bpy 4.x; 5.x materials always have nodes
-        mat.use_nodes = True
-    plane.data.materials.append(mat)
-    if keys:
-        plane.shape_key_add(name="Basis")
-        for k in keys:
-            plane.shape_key_add(name=k).value = 0.0
-    bpy.context.view_layer.objects.active = plane
-    return plane
+    return mapscenes.principled_plane(SIZE, keys)
 
 
 def _wired_plane(keys=()):
