@@ -216,8 +216,8 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
         if old_inputs == inputs and np.array_equal(old_skin, skin):
             return False
     contributions = [s.contribute(ob, statics[s.name], skin) for s in active]
-    for s in active:
-        status.set(ob, s.name, s.problems(ob, statics[s.name]))
+    for s in registry.sources():
+        status.set(ob, s.name, s.problems(ob, statics[s.name]) if s in active else "")
     _write_shading(ob, active, statics, contributions)
     if not enabled:
         state.orig_inputs = (skin.copy(), inputs)

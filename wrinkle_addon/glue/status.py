@@ -22,12 +22,14 @@ def set(face, channel, message):  # noqa: A001 - the store's verb
                 del _messages[uid]
 
 
-def get(face, channel=None):
-    """The message of one channel, or all of ``face``'s messages joined (empty: none)."""
+def get(face, channel=None, *, family=False):
+    """The message of one channel, or all of ``face``'s messages joined (empty: none).
+    ``family``: also the channels named ``<channel>.<part>`` (a source's sub-channels)."""
     per_face = _messages.get(face.session_uid, {})
-    if channel is not None:
+    if channel is not None and not family:
         return per_face.get(channel, "")
-    return "; ".join(per_face[c] for c in sorted(per_face) if per_face[c])
+    keys = [c for c in sorted(per_face) if channel is None or c == channel or c.startswith(channel + ".")]
+    return "; ".join(per_face[c] for c in keys if per_face[c])
 
 
 def clear(face=None):

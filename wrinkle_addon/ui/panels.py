@@ -33,7 +33,7 @@ class VIEW3D_PT_wrinkle_face(bpy.types.Panel):
             header, body = layout.panel(f"wrinkle_source_{source.name}", default_closed=not source.geometric)
             header.label(text=source.label)
             if body is not None:
-                status_box(body, status.get(face, source.name))
+                status_box(body, status.get(face, source.name, family=True))
                 source.draw(body, context, face)
         row = layout.row(align=True)
         row.operator("wrinkle.bake", icon="FILE_CACHE")

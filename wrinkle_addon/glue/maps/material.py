@@ -35,7 +35,8 @@ IMAGE_NODES = (("base_image", "Wrinkle Base", "Base Normal"),
                ("mask_a", "Wrinkle Mask A", "Mask A"),
                ("mask_b", "Wrinkle Mask B", "Mask B"))
 _OURS = {BLEND_NODE, WEIGHTS_NODE, UV_NODE, NORMAL_NODE} | {n for _p, n, _s in IMAGE_NODES}
-CHANNEL = "maps"  # this method's status channel
+CHANNEL = "maps"  # this method's name: its wrinkle source and its static data in the frame stage
+TABLE_CHANNEL = CHANNEL + ".table"  # the status channel of the table's sync
 _problems = {}  # face session_uid -> {expression index: message}
 
 
@@ -43,11 +44,11 @@ MapError = mapgroup.MapError
 
 
 def status(face):
-    return status_store.get(face, CHANNEL)
+    return status_store.get(face, TABLE_CHANNEL)
 
 
 def set_status(face, message):
-    status_store.set(face, CHANNEL, message)
+    status_store.set(face, TABLE_CHANNEL, message)
 
 
 def binding_problem(face, e):
