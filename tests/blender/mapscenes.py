@@ -70,8 +70,7 @@ def emit_normal(nt, normal):
 def show_normal_material(plane, group_node_setup):
     """A material that emits 0.5 + 0.5 N (world normal) from ``group_node_setup(nt)``,
     which must return the output socket of a normal."""
-    mat = bpy.data.materials.new("ShowNormal")
-    mat.use_nodes = True
+    mat = node_material("ShowNormal")
     nt = mat.node_tree
     nt.nodes.clear()
     emit_normal(nt, group_node_setup(nt))
@@ -111,12 +110,19 @@ def random_normal_map(rng, size, max_slope=0.35):
     return 0.5 + 0.5 * n
 
 
+def node_material(name):
+    """A new material with a node tree (5.x materials always have one; 4.x needs use_nodes,
+    which 5.x deprecates)."""
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    return mat
+
+
 def principled_plane(size, keys=(), cuts=0):
     """The plane with a Principled "Skin" material and shape keys ``keys`` (at 0), active."""
     plane = plane_scene(size, cuts)
-    mat = bpy.data.materials.new("Skin")
-    if mat.node_tree is None:  # bpy 4.x; 5.x materials always have nodes
-        mat.use_nodes = True
+    mat = node_material("Skin")
     plane.data.materials.append(mat)
     if keys:
         plane.shape_key_add(name="Basis")

@@ -64,8 +64,7 @@ def test_zone_clamp_and_a_third_map(render_small, tmp_path):
 
 def test_existing_group_is_reused_and_extended():
     ng = mapgroup.ensure_blend_group(2)
-    mat = bpy.data.materials.new("M")
-    mat.use_nodes = True
+    mat = mapscenes.node_material("M")
     node = mat.node_tree.nodes.new("ShaderNodeGroup")
     node.node_tree = ng
     val = mat.node_tree.nodes.new("ShaderNodeValue")
