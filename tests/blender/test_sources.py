@@ -29,17 +29,18 @@ class Bump(WrinkleSource):
     name = "test_bump"
     label = "Bump"
     properties = (("test_bump", BumpSettings),)
+    sigma = SIGMA  # static: a change rebuilds the static data
 
     def active(self, face):
         return True
 
     def static_key(self, face, in_scene):
-        return len(face.data.vertices)
+        return len(face.data.vertices), self.sigma
 
     def build(self, face, mesh, in_scene):
         r2 = ((mesh.rest - CENTRE) ** 2).sum(axis=1)
-        verts = np.flatnonzero(r2 < (3 * SIGMA) ** 2)
-        profile = np.exp(-r2[verts] / SIGMA**2).astype(np.float32)
+        verts = np.flatnonzero(r2 < (3 * self.sigma) ** 2)
+        profile = np.exp(-r2[verts] / self.sigma**2).astype(np.float32)
         return type("Static", (), {"footprint": combine.Footprint(height_verts=verts), "profile": profile})
 
     def inputs(self, face, static):
@@ -109,6 +110,21 @@ def test_the_bump_sums_with_the_muscles(bump):
     assert np.abs(muscles).max() > 1e-4 and np.abs(alone).max() > 1e-4
     # heights add along one normal: the sum of the two separately, to first order
     np.testing.assert_allclose(both, alone + muscles, atol=2e-4)
+
+
+def test_rebuilt_static_data_always_rebuilds_the_plan(bump):
+    """Each rebuild of a source's static data gets a new combined plan, however often it
+    happens: the raised vertices are exactly the current footprint's."""
+    scene, face = _bump_face(((1, 0.003),))
+    rest = np.empty((len(face.data.vertices), 3), np.float32)
+    face.data.attributes["position"].data.foreach_get("vector", rest.ravel())
+    r2 = ((rest - CENTRE) ** 2).sum(axis=1)
+    for i, sigma in enumerate((0.01, 0.02) * 6):
+        bump.sigma = sigma
+        scene.frame_set(1 + i % 2)
+        scene.frame_set(1)
+        moved = np.flatnonzero(np.abs(scenes.offsets(face)).max(axis=1) > 0)
+        np.testing.assert_array_equal(moved, np.flatnonzero(r2 < (3 * sigma) ** 2), err_msg=f"sigma {sigma}")
 
 
 @pytest.mark.render

@@ -42,6 +42,8 @@ dangling reference.  Handlers never raise: problems become a status message
 shown in the panel.
 """
 
+import itertools
+
 import bpy
 import numpy as np
 from bpy.app.handlers import persistent
@@ -53,6 +55,7 @@ from .errors import WrinkleError
 
 CHANNEL = "stage"  # the status channel of the stage itself
 _cache = {}  # session_uid -> _FaceState
+_builds = itertools.count()  # serial numbers of static builds
 
 
 class _FaceState:
@@ -63,7 +66,7 @@ class _FaceState:
         self.key = None
         self.mesh = None
         self.scratch = None
-        self.statics = {}  # source name -> (static key, static data)
+        self.statics = {}  # source name -> (static key, static data, build serial number)
         self.plan = None  # core.combine.Plan of the geometric sources
         self.plan_key = None
         self.orig_inputs = None  # the inputs whose offsets the original mesh holds
@@ -110,18 +113,19 @@ def _topology(state, me):
 
 
 def _static(state, source, ob, in_scene):
+    """The source's static data, rebuilt when its key changed; each build gets a new serial
+    number, which the combined plan's key is made of."""
     key = source.static_key(ob, in_scene)
     cached = state.statics.get(source.name)
     if cached is not None and cached[0] == key:
         return cached[1]
     data = source.build(ob, state.mesh, in_scene)
-    state.statics[source.name] = (key, data)
-    state.plan_key = None if source.geometric else state.plan_key
+    state.statics[source.name] = (key, data, next(_builds))
     return data
 
 
 def _plan(state, geometric, statics):
-    key = tuple((s.name, id(statics[s.name])) for s in geometric)
+    key = tuple((s.name, state.statics[s.name][2]) for s in geometric)
     if state.plan is None or state.plan_key != key:
         footprints = [statics[s.name].footprint for s in geometric]
         state.plan = combine.build(len(state.mesh.rest), state.mesh.tris, footprints)
