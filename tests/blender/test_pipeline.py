@@ -362,3 +362,27 @@ def test_bones_compressing_the_skin_raise_wrinkles():
     assert pipeline.status_of(face) == ""
     assert np.abs(off[:, 1]).max() > 1e-4  # wrinkles along the normal
     assert np.all(off[:, [0, 2]] == 0)  # and no pull: the bone did the deforming
+
+
+@pytest.mark.parametrize("animated", ["location", "lambda_w", "face_location"])
+def test_playback_follows_animated_static_parameters(animated):
+    """Viewport frames skip the static checks of muscles Blender did not update; a muscle
+    whose placement or parameters are animated (or a moving face) is updated every frame
+    and must be followed exactly as a full re-evaluation does."""
+    scene = bpy.context.scene
+    face, muscle = scenes.wrinkled_face(contraction=1.0)
+    owner, path, values = {
+        "location": (muscle, "location", ((0.0, 0.0, 0.0), (0.0, 0.0, 0.01))),
+        "lambda_w": (muscle, "ewrinkles_muscle.lambda_w", (0.2, 0.6)),
+        "face_location": (face, "location", ((0.0, 0.0, 0.0), (0.02, 0.0, 0.0))),
+    }[animated]
+    target, attr = (owner.ewrinkles_muscle, "lambda_w") if "." in path else (owner, path)
+    for frame, value in zip((1, 5), values):
+        setattr(target, attr, value)
+        owner.keyframe_insert(path, frame=frame)
+    for f in (1, 2, 4, 3, 5):
+        scene.frame_set(f)
+        shown = scenes.offsets(face).copy()
+        pipeline._cache.clear()  # a full re-evaluation from scratch, written back
+        assert pipeline.update_face(face, bpy.context.evaluated_depsgraph_get())
+        np.testing.assert_allclose(shown, scenes.stored_offsets(face), atol=1e-7, err_msg=f"frame {f}")

@@ -112,11 +112,14 @@ def _topology(state, me):
     return True
 
 
-def _static(state, source, ob, in_scene):
+def _static(state, source, ob, in_scene, changes):
     """The source's static data, rebuilt when its key changed; each build gets a new serial
-    number, which the combined plan's key is made of."""
-    key = source.static_key(ob, in_scene)
+    number, which the combined plan's key is made of.  ``changes`` (viewport frames): the
+    IDs Blender updated; when they cannot have changed the data, the key is not computed."""
     cached = state.statics.get(source.name)
+    if cached is not None and changes is not None and source.unchanged(ob, cached[1], changes, in_scene):
+        return cached[1]
+    key = source.static_key(ob, in_scene)
     if cached is not None and cached[0] == key:
         return cached[1]
     data = source.build(ob, state.mesh, in_scene)
@@ -177,13 +180,14 @@ def _write_shading(ob, active, statics, contributions):
             source.write_shading(ob, statics[source.name], name, values)
 
 
-def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=None):
+def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=None, changes=None):
     """Evaluate every active wrinkle source on one face and write the result once.
 
     Returns True when it wrote new offsets.  ``in_place``: write into ``depsgraph``'s
     evaluated mesh if that is safe (see the module doc), else write back into the original
     mesh.  ``only_if_changed``: skip when the original mesh already holds the offsets of
-    these inputs.  ``in_scene``: the ``session_uid`` of every object of the scene."""
+    these inputs.  ``in_scene``: the ``session_uid`` of every object of the scene.
+    ``changes``: the IDs Blender updated for this frame (see :func:`_static`), or None."""
     enabled = ob.ewrinkles_face.enabled
     active = [s for s in registry.sources() if (enabled or not s.geometric) and s.active(ob)]
     if not active and not enabled:
@@ -213,7 +217,7 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
         status.set(ob, CHANNEL, f'The modifiers of "{ob.name}" remove vertices: wrinkles need them all')
         return False
     skin = meshio.read_vector_prefix(ev, stage.SKIN_ATTR if enabled else "position", n, state.skin)
-    statics = {s.name: _static(state, s, ob, in_scene) for s in active}
+    statics = {s.name: _static(state, s, ob, in_scene, changes) for s in active}
     inputs = (float(ob.ewrinkles_face.strength),) + tuple(s.inputs(ob, statics[s.name]) for s in active)
     if only_if_changed and state.orig_inputs is not None:
         old_skin, old_inputs = state.orig_inputs
@@ -228,7 +232,8 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
         return False
     geometric = [(s, c) for s, c in zip(active, contributions) if s.geometric]
     plan = _plan(state, [s for s, _c in geometric], statics)
-    out = combine.combine(plan, skin, [c for _s, c in geometric], out=state.out)
+    parts = [c for _s, c in geometric]
+    out = combine.combine(plan, skin, parts, out=state.out)
     if not (in_place and stage.output_is_final(ob, mod) and _write_in_place(state, ev, skin, out)):
         meshio.write_vectors(me, stage.OFFSET_ATTR, out)
         stage.stamp(ob, depsgraph)
@@ -250,7 +255,13 @@ def _scan(scene):
     return found, in_scene
 
 
-def update_scene(scene, depsgraph, only_if_changed=False, in_place=False):
+def _changes(depsgraph):
+    """``session_uid`` -> (transform, geometry) of every ID ``depsgraph`` updated."""
+    return {u.id.original.session_uid: (u.is_updated_transform, u.is_updated_geometry)
+            for u in depsgraph.updates}
+
+
+def update_scene(scene, depsgraph, only_if_changed=False, in_place=False, changes=None):
     found, in_scene = _scan(scene)
     meshes = [ob.data for ob in found if ob.ewrinkles_face.enabled]
     for ob in found:
@@ -259,7 +270,7 @@ def update_scene(scene, depsgraph, only_if_changed=False, in_place=False):
                                     "make the mesh single-user (Object > Relations > Make Single User)")
             continue
         try:
-            update_face(ob, depsgraph, only_if_changed, in_place, in_scene)
+            update_face(ob, depsgraph, only_if_changed, in_place, in_scene, changes)
         except Exception as exc:  # a handler must never raise into Blender
             status.set(ob, CHANNEL, f"Internal error, wrinkles skipped: {exc!r}")
             print(f"Expression Wrinkles: {ob.name}: {exc!r}")
@@ -300,7 +311,7 @@ def on_frame_change_post(scene, depsgraph=None):
         return
     if depsgraph is not None and depsgraph.mode == "VIEWPORT":
         # the depsgraph just evaluated for this frame: write into it, no second evaluation
-        update_scene(scene, depsgraph, in_place=True)
+        update_scene(scene, depsgraph, in_place=True, changes=_changes(depsgraph))
         return
     # Renders and exports: write back, reading through the context's depsgraph, since the
     # handler's argument drops other animated shape keys during render(animation=True)
@@ -334,6 +345,13 @@ def on_save_pre(*_args):
 def on_load_post(*_args):
     _cache.clear()
     status.clear()
+
+
+@persistent
+def on_undo_post(*_args):
+    # Undo reloads the data: the next frame rebuilds every face's cache from scratch
+    # rather than trust the IDs Blender reports as updated.
+    _cache.clear()
 
 
 def refresh_all(context):
@@ -375,6 +393,8 @@ _HANDLERS = (
     (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update_post),
     (bpy.app.handlers.load_post, on_load_post),
     (bpy.app.handlers.save_pre, on_save_pre),
+    (bpy.app.handlers.undo_post, on_undo_post),
+    (bpy.app.handlers.redo_post, on_undo_post),
 )
 
 

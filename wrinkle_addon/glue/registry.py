@@ -53,6 +53,14 @@ class WrinkleSource:
         ``in_scene``: the ``session_uid`` of every object of the scene."""
         return None
 
+    def unchanged(self, face, static, changes, in_scene):
+        """True when the IDs Blender updated this frame cannot have changed the static data,
+        so :meth:`static_key` need not be computed.  ``changes``: ``session_uid`` ->
+        ``(transform, geometry)`` flags of every updated ID (viewport frames only); a
+        deleted object is in none of them, so check ``in_scene`` too.  Default: always
+        check the key."""
+        return False
+
     def build(self, face, mesh, in_scene):
         """The static data (anything) for ``face`` and its :class:`MeshArrays` ``mesh``.  A
         geometric source's static data has a ``footprint`` (``core.combine.Footprint``)."""

@@ -11,10 +11,12 @@ from ..ui import muscles as muscles_ui
 
 
 class _Static:
-    __slots__ = ("plan", "footprint", "refs", "names")
+    __slots__ = ("plan", "footprint", "refs", "n_refs", "names", "uids")
 
-    def __init__(self, plan, refs, names):
-        self.plan, self.footprint, self.refs, self.names = plan, plan.footprint, refs, names
+    def __init__(self, plan, refs, n_refs, muscles):
+        self.plan, self.footprint, self.refs, self.n_refs = plan, plan.footprint, refs, n_refs
+        self.names = [m.name for m in muscles]
+        self.uids = frozenset(m.session_uid for m in muscles)
 
 
 def _live_refs(face, in_scene):
@@ -41,7 +43,16 @@ class MuscleSource(WrinkleSource):
         muscles = [face.ewrinkles_face.muscles[i].object for i in refs]
         core = [objects.to_core(m, face) for m in muscles]
         plan = system.build_plan(mesh.rest, mesh.edges, mesh.tris, core)
-        return _Static(plan, refs, [m.name for m in muscles])
+        return _Static(plan, refs, len(face.ewrinkles_face.muscles), muscles)
+
+    def unchanged(self, face, static, changes, in_scene):
+        # Muscles are placed in the face's space: a moved face, or any update of a muscle
+        # (moved, edited, a parameter set: its contraction alone cannot be told apart),
+        # needs the signatures checked, and so does a muscle deleted, unlinked, added or
+        # removed from the list.  The face's own geometry updates every frame.
+        moved = changes.get(face.session_uid, (False, False))[0]
+        return (not moved and not (static.uids & changes.keys()) and static.uids <= in_scene
+                and len(face.ewrinkles_face.muscles) == static.n_refs)
 
     def _contraction(self, face, static):
         refs = face.ewrinkles_face.muscles
