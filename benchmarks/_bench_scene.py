@@ -14,6 +14,12 @@
   value is 0, so every frame blends all 52).
 * ``build_tension_group`` is the native Geometry Nodes edge-length-ratio setup
   users build today to drive wrinkle maps.
+* ``build_displace_group`` is what users build today for geometric wrinkles
+  from that tension: the same tension, then Set Position moving every point
+  along its normal by ``height * max(0, 1 - tension)``, the height sampled from
+  a 1024^2 float image at the point's UV (``make_height_image``), or a constant.
+* ``ensure_uv_map`` gives the head a UV map when it has none (headgen's head
+  has one, "UVMap"; the sphere fallback gets a cylindrical projection).
 
 Frame layout (the same for every benchmark): BrowsUp 0 -> 1 -> 0 -> 1 at
 frames 1, 21, 41, 61 (0.05 instead of 0 in the arkit rig); the jaw 0 -> 15
@@ -262,13 +268,10 @@ def store_rest_position(ob):
     att.data.foreach_set("vector", rest)
 
 
-def build_tension_group():
-    ng = bpy.data.node_groups.get(TENSION_GROUP)
-    if ng is not None:
-        return ng
-    ng = bpy.data.node_groups.new(TENSION_GROUP, "GeometryNodeTree")
-    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+def _tension_field(ng):
+    """The tension nodes in ``ng``: (group input, group output, the socket of the field
+    current edge length / rest length, evaluated on EDGE; read on POINT it is the mean
+    of the incident edges)."""
     N, L = ng.nodes, ng.links
     gin, gout = N.new("NodeGroupInput"), N.new("NodeGroupOutput")
     ev = N.new("GeometryNodeInputMeshEdgeVertices")
@@ -297,13 +300,29 @@ def build_tension_group():
     on_edge.domain = "EDGE"
     on_edge.data_type = "FLOAT"
     L.new(div.outputs["Value"], on_edge.inputs["Value"])
-    store = N.new("GeometryNodeStoreNamedAttribute")
+    return gin, gout, on_edge.outputs["Value"]
+
+
+def _new_group(name):
+    ng = bpy.data.node_groups.new(name, "GeometryNodeTree")
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    return ng
+
+
+def build_tension_group():
+    ng = bpy.data.node_groups.get(TENSION_GROUP)
+    if ng is not None:
+        return ng
+    ng = _new_group(TENSION_GROUP)
+    gin, gout, tension = _tension_field(ng)
+    store = ng.nodes.new("GeometryNodeStoreNamedAttribute")
     store.data_type = "FLOAT"
     store.domain = "POINT"  # edge -> point adaptation averages the incident edges
     store.inputs["Name"].default_value = TENSION_ATTR
-    L.new(gin.outputs[0], store.inputs["Geometry"])
-    L.new(on_edge.outputs["Value"], store.inputs["Value"])
-    L.new(store.outputs[0], gout.inputs[0])
+    ng.links.new(gin.outputs[0], store.inputs["Geometry"])
+    ng.links.new(tension, store.inputs["Value"])
+    ng.links.new(store.outputs[0], gout.inputs[0])
     return ng
 
 
@@ -315,11 +334,133 @@ def add_tension_modifier(ob):
 
 
 # ---------------------------------------------------------------------------
+# Native Geometry Nodes displacement by tension (what users build for geometric wrinkles)
+# ---------------------------------------------------------------------------
+DISPLACE_GROUP = "Bench Tension Displace"
+DISPLACE_CONST_GROUP = "Bench Tension Displace Constant"
+HEIGHT_IMAGE = "Bench Wrinkle Height"
+HEIGHT_RES = 1024
+HEIGHT_MAX = 0.01  # m: the image's heights are 0..HEIGHT_MAX
+HEIGHT_CONST = 0.005  # m: the constant height of the untextured variant
+
+
+def ensure_uv_map(ob):
+    """The name of ``ob``'s active UV map; a cylindrical one is made if it has none.
+
+    Cylindrical about the Z axis through the bounding-box centre, u = 0.5 at the
+    front (-Y), v from the lowest to the highest vertex; per vertex (the seam at
+    the back is smeared, which a timing does not mind).  Returns (name, made).
+    """
+    me = ob.data
+    if len(me.uv_layers):
+        return (me.uv_layers.active or me.uv_layers[0]).name, False
+    n = len(me.vertices)
+    pos = np.empty(n * 3, np.float32)
+    me.attributes["position"].data.foreach_get("vector", pos)
+    pos = pos.reshape(-1, 3).astype(np.float64)
+    centre = 0.5 * (pos.min(0) + pos.max(0))
+    rel = pos - centre
+    u = 0.5 + np.arctan2(rel[:, 0], -rel[:, 1]) / (2.0 * np.pi)
+    span = max(float(np.ptp(pos[:, 2])), 1e-9)
+    v = (pos[:, 2] - pos[:, 2].min()) / span
+    corner_vert = np.empty(len(me.loops), np.int32)
+    me.loops.foreach_get("vertex_index", corner_vert)
+    uv = np.stack([u, v], -1).astype(np.float32)[corner_vert]
+    layer = me.uv_layers.new(name="UVMap")
+    layer.uv.foreach_set("vector", uv.ravel())
+    return layer.name, True
+
+
+def make_height_image(res=HEIGHT_RES):
+    """A ``res`` x ``res`` float, Non-Color image of wrinkle-like heights in metres.
+
+    Horizontal furrows (48 per unit of v) bent by a slow wave in u, modulated by a
+    broad bump: values 0..HEIGHT_MAX in R, G and B, alpha 1.  The colour space is
+    set before the pixels are written (changing it afterwards would regenerate an
+    unsaved generated image and lose them).
+    """
+    img = bpy.data.images.get(HEIGHT_IMAGE)
+    if img is not None:
+        bpy.data.images.remove(img)
+    img = bpy.data.images.new(HEIGHT_IMAGE, res, res, alpha=False, float_buffer=True)
+    img.colorspace_settings.name = "Non-Color"
+    c = (np.arange(res, dtype=np.float64) + 0.5) / res
+    u, v = np.meshgrid(c, c)  # rows are v (Blender's pixel order: bottom row first)
+    furrows = 0.5 + 0.5 * np.sin(2.0 * np.pi * (48.0 * v + 1.5 * np.sin(2.0 * np.pi * 3.0 * u)))
+    bump = np.exp(-((u - 0.5) ** 2 + (v - 0.6) ** 2) / (2.0 * 0.2 ** 2))
+    h = (HEIGHT_MAX * furrows * bump).astype(np.float32)
+    px = np.ones((res, res, 4), np.float32)
+    px[..., :3] = h[..., None]
+    img.pixels.foreach_set(px.ravel())
+    img.update()
+    return img
+
+
+def build_displace_group(uv_name, image=None):
+    """Tension, then Set Position: offset = normal * height * max(0, 1 - tension).
+
+    ``image``: the height is that image's red channel sampled (Image Texture node,
+    linear, repeat) at the point's UV (the corner UV map ``uv_name`` read on POINT,
+    i.e. averaged over the point's corners); None: the constant HEIGHT_CONST.
+    """
+    name = DISPLACE_GROUP if image is not None else DISPLACE_CONST_GROUP
+    ng = bpy.data.node_groups.get(name)
+    if ng is not None:
+        bpy.data.node_groups.remove(ng)
+    ng = _new_group(name)
+    N, L = ng.nodes, ng.links
+    gin, gout, tension = _tension_field(ng)
+    slack = N.new("ShaderNodeMath")
+    slack.operation = "SUBTRACT"
+    slack.inputs[0].default_value = 1.0
+    L.new(tension, slack.inputs[1])
+    comp = N.new("ShaderNodeMath")
+    comp.operation = "MAXIMUM"
+    L.new(slack.outputs["Value"], comp.inputs[0])
+    comp.inputs[1].default_value = 0.0
+    amount = N.new("ShaderNodeMath")
+    amount.operation = "MULTIPLY"
+    L.new(comp.outputs["Value"], amount.inputs[0])
+    if image is not None:
+        uv = N.new("GeometryNodeInputNamedAttribute")
+        uv.data_type = "FLOAT_VECTOR"
+        uv.inputs["Name"].default_value = uv_name
+        tex = N.new("GeometryNodeImageTexture")
+        tex.interpolation = "Linear"
+        tex.extension = "REPEAT"
+        tex.inputs["Image"].default_value = image
+        L.new(uv.outputs["Attribute"], tex.inputs["Vector"])
+        sep = N.new("FunctionNodeSeparateColor")
+        L.new(tex.outputs["Color"], sep.inputs["Color"])
+        L.new(sep.outputs["Red"], amount.inputs[1])
+    else:
+        amount.inputs[1].default_value = HEIGHT_CONST
+    normal = N.new("GeometryNodeInputNormal")
+    scale = N.new("ShaderNodeVectorMath")
+    scale.operation = "SCALE"
+    L.new(normal.outputs["Normal"], scale.inputs[0])
+    L.new(amount.outputs["Value"], scale.inputs["Scale"])
+    setpos = N.new("GeometryNodeSetPosition")
+    L.new(gin.outputs[0], setpos.inputs["Geometry"])
+    L.new(scale.outputs["Vector"], setpos.inputs["Offset"])
+    L.new(setpos.outputs[0], gout.inputs[0])
+    return ng
+
+
+def add_displace_modifier(ob, uv_name, image=None):
+    """A Geometry Nodes modifier (at the end of the stack) running ``build_displace_group``;
+    needs the ``rest_position`` attribute (``store_rest_position``)."""
+    mod = ob.modifiers.new("Displace by Tension" + ("" if image is not None else " (constant)"), "NODES")
+    mod.node_group = build_displace_group(uv_name, image)
+    return mod
+
+
+# ---------------------------------------------------------------------------
 def clear_scene():
     for ob in list(bpy.data.objects):
         bpy.data.objects.remove(ob)
     for coll in (bpy.data.meshes, bpy.data.armatures, bpy.data.actions, bpy.data.node_groups,
-                 bpy.data.shape_keys, bpy.data.collections):
+                 bpy.data.shape_keys, bpy.data.collections, bpy.data.images):
         for block in list(coll):
             try:
                 coll.remove(block)

@@ -2,10 +2,12 @@
 """Per-frame cost of the wrinkle pipeline against Blender's own evaluation.
 
 Run:  .venv45/bin/python benchmarks/frame_update.py   (or .venv52)
-      options: --rig light|arkit  --sizes 10k,50k  --frames 30  --warm 5
+      options: --rig light|arkit|both  --sizes 10k,50k  --frames 40  --warm 5  --repeats 3
 
-For heads of about 10k, 50k and 200k vertices (``sample_scenes/lib/headgen``)
-the script builds one of two facial rigs (``--rig``):
+For heads of about 10k, 50k and 200k vertices (``sample_scenes/lib/headgen``,
+which gives the head its UV map "UVMap"; the sphere fallback gets a
+cylindrical one, ``_bench_scene.ensure_uv_map``) the script builds one of two
+facial rigs (``--rig``; ``both`` runs arkit, then light, in one process):
 
 ``light`` (the default)
     A "BrowsUp" shape key (brows up 6 mm, forehead compressed, animated
@@ -20,60 +22,143 @@ the script builds one of two facial rigs (``--rig``):
     with different periods and phases that never reach 0 (Blender skips keys at
     0), so every frame blends all of them; plus the same Jaw bone.
 
-Every timed frame is a new frame, after
-``--warm`` warm-up frames, timed over ``--frames`` frames
-(``time.perf_counter``).  Every ``*_ms`` is the MEDIAN over the frames (this
-machine is shared; means are in ``*_mean_ms`` where useful).  What each number
-contains:
+The face then gets the full muscle set (``build_muscle_set``: 10 roles, mirrored,
+20 muscles).  Every muscle's contraction is keyframed and never 0 on any frame
+(0.05 at its lows): Frontalis inner and major 0.05 -> 1 -> 0.05 -> 1 and
+Frontalis outer 0.05 -> 0.8 -> 0.05 -> 0.8 at frames 1, 21, 41, 61; Corrugator
+0.05 -> 1 -> 0.05 -> 1 at 1, 11, 31, 41; every other role 0.05 -> 0.6 -> 0.05 -> 0.6
+at 1, 16, 36, 56.  The stage is measured in two muscle configurations on the same
+head and rig:
 
-``eval_ms``
-    Blender alone, add-on registered but no face enabled (its handler runs and
-    finds nothing): ``scene.frame_set(f)`` + ``evaluated_depsgraph_get()`` +
-    reading the evaluated positions with ``foreach_get``.  This is shape
+*wrinkles-only* (the unsuffixed figures)
+    every muscle's ``ewrinkles_muscle.wrinkles_only`` on: no Waters pull, only
+    wrinkles from the compression the shape keys and the jaw bone cause (the
+    contractions are then unused).  This is how rigged faces use the add-on.
+*pulling* (the figures suffixed ``_pulling``)
+    ``wrinkles_only`` off on every muscle: all 20 pull (Waters) on every frame,
+    and wrinkle where that pull and the rig compress the skin.
+
+Every timed frame is a new frame, after ``--warm`` warm-up frames, timed over
+``--frames`` frames (``time.perf_counter``): one *block* is warm frames 1..warm,
+then timed frames warm+1..warm+frames, of one configuration.  Every frame time
+is the MEDIAN over the frames (this machine is shared; means are in
+``*_mean_ms`` where useful).
+
+The interleaved measurement.  One *repeat* runs, for each of five configurations
+of the same scene, a base block right next to that configuration's block:
+
+    base wrinkles  base tension  base pulling  base displace  base displace_const
+
+and the next repeat runs the same sequence reversed (each configuration's block
+then comes just before its base block), ``--repeats`` times (default 3, at least
+3).  Every configuration is so compared with a base block measured next to it:
+load that drifts over seconds on this shared machine cancels in the difference.
+Each block times the same loop:
+``scene.frame_set(f)`` + ``evaluated_depsgraph_get()`` + reading the evaluated
+positions with ``foreach_get`` (+ reading ``tension`` in the tension blocks):
+
+``base``            Blender alone: the add-on's frame handler removed, its
+                    Wrinkles modifier and the three reference modifiers off.
+``tension``         the GN tension reference on (below), nothing else.
+``displace``        the GN displacement reference on (textured height).
+``displace_const``  the GN displacement reference with a constant height on.
+``wrinkles``        the Wrinkles modifier on and the frame handler in, muscles
+                    wrinkles-only: the add-on as the viewport runs it.
+``pulling``         the same with every muscle pulling.
+
+Switching between wrinkles-only and pulling rebuilds the muscles' static plan; that
+happens on the block's first warm-up frame, never in a timed one.
+
+Timed figures (from those blocks).  A frame time ("pooled") is the median over that
+configuration's timed frames of all repeats.  A cost (what a configuration adds to
+a frame, ``gn_*_ms`` and ``stage_ms*``) is the median over the repeats of d_r, its
+block's median frame time minus that of the base block next to it (see Ratios
+below), so it is not exactly the difference of the pooled frame times:
+
+``eval_ms`` / ``eval_mean_ms``
+    Blender alone: pooled median (mean) of all base blocks.  This is shape
     keys + armature + the animation system for the scene.
-``gn_tension_ms``
-    The native alternative users build today: a Geometry Nodes modifier after
-    the armature that computes, per edge, current length / rest length (rest
-    from a ``rest_position`` point attribute stored once on the mesh, fetched
-    with Edge Vertices + Evaluate at Index), averaged onto the points
-    (Evaluate on Domain EDGE, stored on POINT) as the float attribute
-    ``tension``.  ``gn_tension_ms`` = median frame time with the modifier (same
-    loop as ``eval_ms``, plus reading ``tension``) minus the median without.
-    Base and tension blocks are interleaved (A B A B) to cancel drift.
-``read_ms`` / ``compute_ms`` / ``write_ms`` (the handler's parts, timed by hand
-    with the add-on's handler removed, calling the same functions it calls):
+``gn_tension_ms`` / ``tension_frame_ms``
+    The native alternative users build today to drive wrinkle maps: a Geometry
+    Nodes modifier after the armature that computes, per edge, current length /
+    rest length (rest from a ``rest_position`` point attribute stored once on
+    the mesh, fetched with Edge Vertices + Evaluate at Index), averaged onto the
+    points (Evaluate on Domain EDGE, stored on POINT) as the float attribute
+    ``tension``.  ``tension_frame_ms``: the pooled frame time of the tension
+    blocks; ``gn_tension_ms``: its cost, median of d_r(tension).
+``gn_displace_ms`` / ``displace_frame_ms``
+    What users build today for geometric wrinkles from tension: a Geometry Nodes
+    modifier computing the same tension field, then Set Position offsetting each
+    point along its normal (Normal node) by height * max(0, 1 - tension), the
+    height sampled by an Image Texture node (linear, repeat) from a 1024^2 float
+    image of wrinkle-like heights (``_bench_scene.make_height_image``, 0..10 mm,
+    Non-Color) at the point's UV (the UV map read on POINT, i.e. averaged over
+    the point's corners).  ``displace_frame_ms``: the pooled frame time of the
+    displace blocks; ``gn_displace_ms``: its cost, median of d_r(displace).
+``gn_displace_const_ms`` / ``displace_const_frame_ms``
+    The same with a constant height (5 mm) instead of the texture: the cost of
+    the tension and the Set Position alone (median of d_r(displace_const)).
+``playback_ms`` / ``playback_mean_ms`` / ``playback_base_ms`` / ``stage_ms``
+    ``playback_ms``: pooled median (mean) of the wrinkles blocks.
+    ``playback_base_ms``: the base blocks, i.e. the same number as ``eval_ms``
+    (kept as its own key).  ``stage_ms``: what wrinkles add to a frame, median
+    of d_r(wrinkles), measured exactly like ``gn_tension_ms`` (the GN stage
+    inside the evaluation, the handler, the in-place write).
+``playback_ms_pulling`` / ``playback_mean_ms_pulling`` / ``stage_ms_pulling``
+    The same from the pulling blocks.
+
+Ratios, every one the MEDIAN OF PER-REPEAT RATIOS: in repeat r, m_r(config) is
+the median frame time of the configuration's block and b_r(config) that of the
+base block next to it, and d_r(config) = m_r(config) - b_r(config); a ratio is
+computed per repeat and the median taken over the repeats (so a ratio is not
+exactly the quotient of the costs above).  A repeat whose denominator
+is <= 0 (noise larger than the reference) gives no ratio and is left out of the
+median (of two values left, the median is their mean); a ratio with no repeat
+left is null (n/a).  The per-repeat values are in ``per_repeat``.
+
+``gn_ratio``                 d_r(wrinkles) / d_r(tension)
+``gn_ratio_pulling``         d_r(pulling) / d_r(tension)
+``gn_displace_ratio``        d_r(wrinkles) / d_r(displace)
+``playback_ratio``           m_r(wrinkles) / b_r(wrinkles)
+``playback_ratio_pulling``   m_r(pulling) / b_r(pulling)
+``per_repeat``               ``frame_ms``: m_r, ``base_ms``: b_r and
+                             ``cost_ms``: d_r, per configuration (a list each,
+                             one entry per repeat, in repeat order); and each
+                             ratio above as its list of per-repeat values
+                             (null where left out).
+
+The handler's parts, timed by hand in each muscle configuration (keys unsuffixed
+for wrinkles-only, suffixed ``_pulling`` for pulling), with the add-on's handler
+removed, calling the functions it calls:
+
+``read_ms`` / ``compute_ms`` / ``write_ms``
     ``read_ms``: ``meshio.read_vector_prefix`` of ``wrinkle_skin`` from the
-    evaluated mesh.  ``compute_ms``: ``core.muscles.system.evaluate``.  ``write_ms``:
-    ``pipeline._write_in_place``: the check that Blender re-evaluated the
+    evaluated mesh.  ``compute_ms``: ``core.muscles.system.evaluate`` (the
+    muscles alone through ``core.combine``; the handler's own path may differ).
+    ``write_ms``: reading the evaluated positions into the face state
+    and ``pipeline._write_in_place``: the check that Blender re-evaluated the
     face, the ``foreach_set`` of ``skin + offset`` into the evaluated mesh's
-    positions (and its ``wrinkle_offset``), and ``Mesh.update()`` so its
-    normals are recomputed.  No second evaluation follows.
+    positions (and its ``wrinkle_offset``), and ``Mesh.update()`` so its normals
+    are recomputed.  No second evaluation follows.  ``write_refused_frames``:
+    timed frames on which ``_write_in_place`` declined (should be 0).
 ``update_face_ms`` / ``overhead_ms``
     The whole ``pipeline.update_scene(in_place=True)`` call, as the viewport
-    handler makes it (scene scan, checks, topology key, rest-position comparison, muscle
-    signatures, contraction gathering, evaluate, write);
-    ``overhead_ms`` = update_face_ms - (read + compute + write).
+    handler makes it (scene scan, checks, topology key, rest-position
+    comparison, muscle signatures, contraction gathering, evaluate, write);
+    ``overhead_ms`` = update_face_ms - (read + compute + write) (negative when
+    the handler's own path is cheaper than ``system.evaluate``).
 ``writeback_handler_ms`` / ``writeback_reeval_ms``
     The other path, taken by render and export frames: ``update_scene`` writing
     ``wrinkle_offset`` into the original mesh and tagging it, then the second
     evaluation of the whole modifier stack that the tag causes.  Reported for
     comparison; it does not enter playback.
-``playback_ms`` / ``playback_base_ms`` / ``stage_ms``
-    The same loop as ``eval_ms`` (frame_set + evaluated_depsgraph_get + reading
-    positions) with wrinkles (stage modifier on, handler in) and without (stage
-    off, handler out), interleaved A B A B like the tension measurement.
-    ``stage_ms`` = playback_ms - playback_base_ms: what wrinkles add to a
-    frame, measured exactly like ``gn_tension_ms`` (the GN stage inside the
-    evaluation, the handler, the in-place write).  ``gn_ratio`` = stage_ms /
-    gn_tension_ms; ``playback_ratio`` = playback_ms / playback_base_ms.
-    ``in_place_frames`` counts checked frames on which the original mesh was
-    not written (so there was no second evaluation).
 ``eval_stage_ms``
     frame_set + read with the Wrinkles modifier present but the handler
     removed: what the GN output stage alone costs inside the normal evaluation.
-``region_verts``
+``region_verts`` (``region_verts_pulling``)
     ``len(plan.verts)``: vertices the per-frame NumPy touches (regions, their
     edges' and triangles' vertices and the Waters areas of influence).
+    ``region_sizes``: the wrinkling region of each muscle.
 ``compute_tight_loop_ms``
     ``core.muscles.system.evaluate`` called 40 times in a row on one frame's skin: the
     same work as ``compute_ms`` with warm caches and no Blender threads
@@ -81,26 +166,54 @@ contains:
     is the realistic one.
 ``evaluate_steps_ms``
     ``core.muscles.system.evaluate`` replayed step by step (calling its own parts,
-    checked against the real one for equality) to show where its time goes.
+    checked against the real one for equality: ``evaluate_replica_exact``) to
+    show where its time goes; null with ``evaluate_steps_error`` when the
+    replica no longer matches the add-on's internals.
 
-Sanity checks printed as it runs: region sizes and bounding boxes per
-muscle, offsets changing frame to frame, and evaluated position ==
-wrinkle_skin + wrinkle_offset (the frame shows its own wrinkles).
+These hand-timed parts reach into the add-on's internals (``pipeline._cache``, the
+muscle source's static plan, ``pipeline._write_in_place``); if they fail, the
+exception goes to ``split_error`` (``split_error_pulling``) and the interleaved
+measurement still runs.
 
-The last line of output is one JSON object, with ``tree`` (a hash of the
-add-on and sample-scene sources measured) and the 1-minute load average at
-start and end: on a shared 2-core machine, compare runs only at low load.
+Untimed checks, printed as the run goes and kept in the JSON: the UV map sampled
+(``uv_map``; ``uv_made``: the benchmark made it); region sizes and bounding boxes
+per muscle (``muscles``: how many); the evaluated positions change every frame
+(``positions_changed_frames``); the tension varies (``tension_min``: its minimum
+over the tension blocks' frames); the displacement references move the skin
+(``displace_max_mm``, ``displace_const_max_mm``, on one frame;
+``displace_moved_verts``) and the textured one really samples the image
+(``displace_textured_varies``: its displacement over the constant one's is not
+constant); every muscle contracts on every frame (``min_contraction``); and,
+per muscle configuration, the offsets change frame to frame
+(``offsets_changed_frames`` of ``checked_frames``, ``max_offset_mm``), the
+evaluated position == wrinkle_skin + wrinkle_offset (``stage_applied_err``: the
+frame shows its own wrinkles) and the original mesh was never written
+(``in_place_frames``: no second evaluation).
+
+Output.  The last line is one JSON object.  ``--rig light`` or ``arkit``:
+``{"bpy", "rig", "tree", "repeats", "frames", "warm", "loadavg_start",
+"<size>": {...figures...}, ..., "loadavg_end"}``.  ``--rig both``:
+``{"meta": {"bpy", "rigs", "tree", "repeats", "frames", "warm",
+"loadavg_start", "loadavg_end", "loadavg": {"<rig>": [start, end]}},
+"arkit": {"<size>": {...}}, "light": {"<size>": {...}}}``.  ``tree`` is a hash
+of the add-on and sample-scene sources measured; the load averages are the
+1-minute ones: on a shared 2-core machine, compare runs only at low load.  A size
+that fails keeps the figures it measured plus ``"error"`` (the traceback is in
+the log); the JSON is printed anyway and the exit status is then 1.  Figures
+that could not be computed are null in the JSON and "n/a" in the log.
 """
 
 import argparse
 import cProfile
 import io
 import json
+import math
 import os
 import pstats
 import sys
 import tempfile
 import time
+import traceback
 from pathlib import Path
 
 os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="wrinkle_bench_"))
@@ -130,6 +243,17 @@ pc = time.perf_counter
 _F = np.float32
 MUSCLE_LANDMARKS = ("hairline_center", "glabella", "brow_outer_L", "eye_L", "nose_tip",
                     "mouth_corner_L", "chin", "cheekbone_L")
+# base, then the configurations each measured next to a base block, in a repeat's order
+CONFIGS = ("base", "wrinkles", "tension", "pulling", "displace", "displace_const")
+MUSCLE_CONFIGS = (("wrinkles", ""), ("pulling", "_pulling"))
+# contraction keys (frame, value) per role; never 0, so every muscle pulls on every frame
+CONTRACTION_KEYS = {
+    "FRONTALIS_INNER": ((1, 0.05), (21, 1.0), (41, 0.05), (61, 1.0)),
+    "FRONTALIS_MAJOR": ((1, 0.05), (21, 1.0), (41, 0.05), (61, 1.0)),
+    "FRONTALIS_OUTER": ((1, 0.05), (21, 0.8), (41, 0.05), (61, 0.8)),
+    "CORRUGATOR": ((1, 0.05), (11, 1.0), (31, 0.05), (41, 1.0)),
+}
+OTHER_CONTRACTION_KEYS = ((1, 0.05), (16, 0.6), (36, 0.05), (56, 0.6))
 
 
 def log(*a):
@@ -137,22 +261,70 @@ def log(*a):
 
 
 def ms(values):
-    """Median in ms: robust to other processes on a shared 2-core machine."""
-    return float(np.median(values) * 1000.0)
+    """Median in ms (robust to other processes on a shared 2-core machine); None if empty."""
+    return float(np.median(values) * 1000.0) if len(values) else None
 
 
 def mean_ms(values):
-    return float(np.mean(values) * 1000.0)
+    return float(np.mean(values) * 1000.0) if len(values) else None
+
+
+def sub(a, b):
+    return None if a is None or b is None else a - b
+
+
+def ratio(num, den):
+    """num / den, or None when either is missing or den <= 0 (noise above the reference)."""
+    if num is None or den is None or not den > 0.0:
+        return None
+    return num / den
+
+
+def median_or_none(values):
+    ok = [v for v in values if v is not None and math.isfinite(v)]
+    return float(np.median(ok)) if ok else None
+
+
+def fmt(v, spec=".2f"):
+    """``v`` formatted, or "n/a" for a figure that is missing (None) or not finite."""
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "n/a"
+    if isinstance(v, (bool, int, np.integer)):
+        return str(v)
+    try:
+        return format(v, spec)
+    except (TypeError, ValueError):
+        return str(v)
+
+
+def clean(v):
+    """JSON-safe: floats rounded to 4 places, NaN and infinities as null, recursively."""
+    if isinstance(v, dict):
+        return {k: clean(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [clean(x) for x in v]
+    if isinstance(v, (float, np.floating)):
+        return round(float(v), 4) if math.isfinite(v) else None
+    if isinstance(v, np.integer):
+        return int(v)
+    if isinstance(v, np.bool_):
+        return bool(v)
+    return v
 
 
 class Bench:
-    def __init__(self, target, warm, frames, rig="light"):
+    def __init__(self, target, warm, frames, rig="light", repeats=3):
         self.target = target
         self.rig_kind = rig
+        self.repeats = repeats
         self.warm = list(range(1, warm + 1))
         self.frames = list(range(warm + 1, warm + 1 + frames))
         self.scene = bpy.context.scene
         self.scene.frame_start, self.scene.frame_end = 1, 61
+        self.mods = {}
+        self.stage_mod = None
+        self.muscles = []
+        self.handler(True)
 
     # -- scene -------------------------------------------------------------
     def build(self):
@@ -164,6 +336,7 @@ class Bench:
         self.ob = ob
         self.n = len(ob.data.vertices)
         self.pos_buf = np.empty(self.n * 3, _F)
+        self.uv_name, made = bs.ensure_uv_map(ob)
         if self.rig_kind == "arkit":
             keys, moved = bs.add_arkit_keys(ob, self.landmarks)
             keyed = f"{len(keys)} shape keys (BrowsUp + {len(keys) - 1} regional), verts moved per " \
@@ -172,10 +345,12 @@ class Bench:
             _kb, n_key = bs.add_brows_up(ob, self.landmarks)
             keyed = f"BrowsUp moves {n_key} verts"
         self.rig, n_jaw = bs.add_jaw_rig(ob, self.landmarks, self.scene)
-        log(f"  head ({source}): {self.n} verts, {len(ob.data.polygons)} faces; {keyed}, "
+        log(f"  head ({source}): {self.n} verts, {len(ob.data.polygons)} faces, UV map "
+            f"\"{self.uv_name}\"{' (made: cylindrical)' if made else ''}; {keyed}, "
             f"Jaw group {n_jaw} verts; built in {pc() - t:.1f} s")
         if self.rig_kind == "arkit":
             self.check_keys_live()
+        return {"uv_map": self.uv_name, "uv_made": made}
 
     def check_keys_live(self):
         """Untimed: every shape key is non-zero on every warm-up and timed frame."""
@@ -196,7 +371,7 @@ class Bench:
         return ev
 
     def frame_loop(self, frames, extra=None):
-        """Mean time of frame_set + evaluated_depsgraph_get + position read (+ extra)."""
+        """Times of frame_set + evaluated_depsgraph_get + position read (+ extra), per frame."""
         times = []
         for f in frames:
             t0 = pc()
@@ -208,17 +383,47 @@ class Bench:
             times.append(pc() - t0)
         return times
 
-    # -- 2 and 3: Blender alone, and the native GN tension ---------------------
-    def measure_eval_and_tension(self):
-        mod = bs.add_tension_modifier(self.ob)
-        tension = np.empty(self.n, _F)
-        stats = {}
+    # -- configurations ----------------------------------------------------------
+    def handler(self, on):
+        handlers = bpy.app.handlers.frame_change_post
+        if on and pipeline.on_frame_change_post not in handlers:
+            handlers.append(pipeline.on_frame_change_post)
+        while not on and pipeline.on_frame_change_post in handlers:
+            handlers.remove(pipeline.on_frame_change_post)
 
-        def read_tension(ev):
-            ev.attributes[bs.TENSION_ATTR].data.foreach_get("value", tension)
-            stats.setdefault("min", []).append(float(tension.min()))
+    def set_pulling(self, pulling):
+        """Every muscle pulling (``wrinkles_only`` off) or none (on).  Call with the stage
+        off: each change runs the add-on's refresh, which then stops at the stage check
+        instead of rebuilding the plan per muscle; the next frame rebuilds it once."""
+        for m in self.muscles:
+            if m.ewrinkles_muscle.wrinkles_only == pulling:
+                m.ewrinkles_muscle.wrinkles_only = not pulling
 
-        # untimed check that every frame really deforms the mesh
+    def set_config(self, config):
+        """One of CONFIGS: which modifiers are on, the handler, the muscles' pull."""
+        wrinkles = config in ("wrinkles", "pulling")
+        self.handler(False)
+        if self.stage_mod is not None:
+            self.stage_mod.show_viewport = False
+            if wrinkles:
+                self.set_pulling(config == "pulling")
+        for name, mod in self.mods.items():
+            mod.show_viewport = name == config
+        if wrinkles:
+            self.stage_mod.show_viewport = True
+            self.handler(True)
+
+    # -- the references: GN tension and GN displacement by tension (untimed setup) --------
+    def add_references(self):
+        ob = self.ob
+        bs.store_rest_position(ob)
+        image = bs.make_height_image()
+        self.mods = {"tension": bs.add_tension_modifier(ob),
+                     "displace": bs.add_displace_modifier(ob, self.uv_name, image),
+                     "displace_const": bs.add_displace_modifier(ob, self.uv_name, None)}
+        self.set_config("base")
+        r = {}
+        # every frame really deforms the mesh
         prev, moved = [None], []
 
         def track(_ev):
@@ -226,28 +431,36 @@ class Bench:
                 moved.append(not np.array_equal(prev[0], self.pos_buf))
             prev[0] = self.pos_buf.copy()
 
-        mod.show_viewport = False
         self.frame_loop(self.warm + self.frames, track)
+        r["positions_changed_frames"] = int(sum(moved))
         log(f"  evaluated positions changed on {sum(moved)}/{len(moved)} frames")
-        base, tens = [], []
-        for _round in range(2):
-            for on in (False, True):
-                mod.show_viewport = on
-                self.frame_loop(self.warm, read_tension if on else None)
-                t = self.frame_loop(self.frames, read_tension if on else None)
-                (tens if on else base).extend(t)
-        eval_ms, with_ms = ms(base), ms(tens)
-        log(f"  eval_ms {eval_ms:.2f}   with GN tension {with_ms:.2f}   -> gn_tension_ms "
-            f"{with_ms - eval_ms:.2f}   (tension min over frames {min(stats['min']):.4f}, "
-            f"varies: {len(set(np.round(stats['min'], 6))) > 1})")
-        self.ob.modifiers.remove(mod)
-        self.ob.data.attributes.remove(self.ob.data.attributes[bs.REST_ATTR])
-        return {"eval_ms": eval_ms, "eval_mean_ms": mean_ms(base),
-                "gn_tension_ms": with_ms - eval_ms, "tension_frame_ms": with_ms}
+        # the displacement references move the skin, the textured one by the image
+        f = self.frames[len(self.frames) // 2]
+        shown = {}
+        for config in ("base", "displace", "displace_const"):
+            self.set_config(config)
+            self.frame_loop([f - 1, f])
+            shown[config] = self.pos_buf.reshape(-1, 3).copy()
+        self.set_config("base")
+        d_tex = np.linalg.norm(shown["displace"] - shown["base"], axis=1)
+        d_const = np.linalg.norm(shown["displace_const"] - shown["base"], axis=1)
+        both = d_const > 1e-9
+        rel = d_tex[both] / d_const[both]
+        varies = bool(both.any() and float(rel.std()) > 1e-3 * max(float(rel.mean()), 1e-12))
+        r["displace_max_mm"] = float(d_tex.max()) * 1000.0
+        r["displace_const_max_mm"] = float(d_const.max()) * 1000.0
+        r["displace_moved_verts"] = int(np.count_nonzero(d_tex > 1e-9))
+        r["displace_textured_varies"] = varies
+        log(f"  GN displacement on frame {f}: textured max {fmt(r['displace_max_mm'], '.3f')} mm on "
+            f"{r['displace_moved_verts']} verts, constant max {fmt(r['displace_const_max_mm'], '.3f')} mm; "
+            f"texture sampled (textured / constant not constant): {varies}")
+        return r
 
-    # -- 4: the wrinkle stage ---------------------------------------------------
+    # -- the wrinkle stage ---------------------------------------------------
     def add_wrinkles(self):
         t = pc()
+        self.set_config("base")
+        self.handler(True)
         self.scene.frame_set(1)
         vl = bpy.context.view_layer
         for o in vl.objects:
@@ -256,32 +469,50 @@ class Bench:
         self.ob.select_set(True)
         res = bpy.ops.wrinkle.enable()
         assert res == {"FINISHED"}, res
+        self.stage_mod = stage.find_modifier(self.ob)
         lm = {k: self.landmarks[k] for k in MUSCLE_LANDMARKS}
         self.muscles = operators.build_muscle_set(bpy.context, self.ob, lm)
-        keys = {
-            "FRONTALIS_INNER": ((1, 0.0), (21, 1.0), (41, 0.0), (61, 1.0)),
-            "FRONTALIS_MAJOR": ((1, 0.0), (21, 1.0), (41, 0.0), (61, 1.0)),
-            "FRONTALIS_OUTER": ((1, 0.0), (21, 0.8), (41, 0.0), (61, 0.8)),
-            "CORRUGATOR": ((1, 0.0), (11, 1.0), (31, 0.0), (41, 1.0)),
-        }
+        self.stage_mod.show_viewport = False  # no plan rebuild per key below
         for m in self.muscles:
-            for f, v in keys.get(m.ewrinkles_muscle.role, ()):
+            for f, v in CONTRACTION_KEYS.get(m.ewrinkles_muscle.role, OTHER_CONTRACTION_KEYS):
                 m.ewrinkles_muscle.contraction = v
                 m.keyframe_insert("ewrinkles_muscle.contraction", frame=f)
+        self.set_config("wrinkles")
         self.scene.frame_set(2)
         self.scene.frame_set(1)
-        self.state = pipeline._cache[self.ob.session_uid]
-        plan = self.state.statics["muscles"][1].plan  # the muscle source's static plan
-        log(f"  wrinkles on, {len(self.muscles)} muscles, plan built, in {pc() - t:.1f} s; "
-            f"region_verts {len(plan.verts)} ({100 * len(plan.verts) / self.n:.1f} %), "
-            f"rows {len(plan.row_vert)}, pairs {len(plan.pair_edge)}, edges {plan.edges.shape[1]}, "
-            f"tris {plan.output.tris.shape[1]}, pull rows {len(plan.pull_vert)}")
+        low = float("inf")
+        for f in self.warm + self.frames:
+            self.scene.frame_set(f)
+            low = min(low, min(m.ewrinkles_muscle.contraction for m in self.muscles))
+        log(f"  wrinkles on, {len(self.muscles)} muscles, in {pc() - t:.1f} s; min contraction of any "
+            f"muscle on any frame {low:.3f} (every muscle pulls on every frame in the pulling blocks)")
         if pipeline.status_of(self.ob):
             log(f"  status: {pipeline.status_of(self.ob)}")
-        return plan
+        return {"muscles": len(self.muscles), "min_contraction": low}
+
+    def state(self):
+        return pipeline._cache[self.ob.session_uid]
+
+    def plan(self):
+        """The muscle source's static plan, as the frame stage holds it now."""
+        return self.state().statics["muscles"][1].plan
+
+    def log_plan(self, plan, config):
+        def size(name, axis=None):
+            v = getattr(plan, name, None)
+            if v is None:
+                v = getattr(getattr(plan, "output", None), name, None)
+            if v is None:
+                return "?"
+            return v.shape[axis] if axis is not None else len(v)
+
+        log(f"  [{config}] plan: region_verts {len(plan.verts)} ({100 * len(plan.verts) / self.n:.1f} %), "
+            f"rows {size('row_vert')}, pairs {size('pair_edge')}, edges {size('edges', 1)}, "
+            f"tris {size('tris', 1)}, pull rows {size('pull_vert')}, "
+            f"offset verts {len(plan.footprint.offset_verts)}")
 
     def region_report(self, plan):
-        rest = self.state.mesh.rest
+        rest = self.state().mesh.rest
         live = muscle_objects.live_muscles(self.ob)
         gv = plan.verts[plan.row_vert]
         lm = self.landmarks
@@ -312,13 +543,13 @@ class Bench:
     def measure_split(self, plan):
         """The handler's parts, timed by hand with the handler removed (same calls it makes)."""
         ob = self.ob
-        handlers = bpy.app.handlers.frame_change_post
-        handlers.remove(pipeline.on_frame_change_post)
+        self.handler(False)
         try:
             live = muscle_objects.live_muscles(ob)
             strength = ob.ewrinkles_face.strength
-            st = self.state
+            st = self.state()
             rd, cp, wr, base, uf, wb, rev = [], [], [], [], [], [], []
+            refused = [0]
 
             def one(f, record):
                 t0 = pc()
@@ -333,13 +564,16 @@ class Bench:
                 t3 = pc()
                 out = system.evaluate(plan, skin, contraction, strength, out=st.out)
                 t4 = pc()
-                assert pipeline._write_in_place(st, ev, skin, out)
+                if getattr(st, "positions", None) is not None:  # what _write_in_place compares
+                    ev.attributes["position"].data.foreach_get("vector", st.positions.reshape(-1))
+                written = pipeline._write_in_place(st, ev, skin, out)
                 t5 = pc()
                 if record:
                     base.append(t1 - t0)
                     rd.append(t2 - t1)
                     cp.append(t4 - t3)
                     wr.append(t5 - t4)
+                    refused[0] += not written
 
             for f in self.warm:
                 one(f, False)
@@ -363,32 +597,81 @@ class Bench:
                     wb.append(t2 - t1)
                     rev.append(t3 - t2)
         finally:
-            handlers.append(pipeline.on_frame_change_post)
+            self.handler(True)
         r = {"read_ms": ms(rd), "compute_ms": ms(cp), "write_ms": ms(wr)}
         r["eval_stage_ms"] = ms(base)
         r["update_face_ms"] = ms(uf)
-        r["overhead_ms"] = r["update_face_ms"] - (r["read_ms"] + r["compute_ms"] + r["write_ms"])
+        r["overhead_ms"] = sub(r["update_face_ms"], sum(r[k] for k in ("read_ms", "compute_ms", "write_ms")))
         r["writeback_handler_ms"] = ms(wb)
         r["writeback_reeval_ms"] = ms(rev)
-        log("  split: " + "  ".join(f"{k} {v:.3f}" for k, v in r.items()))
+        r["write_refused_frames"] = refused[0]
+        log("  split: " + "  ".join(f"{k} {fmt(v, '.3f')}" for k, v in r.items()))
         return r
 
-    def measure_playback(self):
-        """Frames with wrinkles (stage on, handler in) against frames without (stage off,
-        handler out), interleaved A B A B like the tension measurement."""
-        mod = stage.find_modifier(self.ob)
-        handlers = bpy.app.handlers.frame_change_post
-        base, wrinkled = [], []
-        for _round in range(2):
-            for on in (False, True):
-                mod.show_viewport = on
-                if on:
-                    handlers.append(pipeline.on_frame_change_post)
-                else:
-                    handlers.remove(pipeline.on_frame_change_post)
-                self.frame_loop(self.warm)
-                (wrinkled if on else base).extend(self.frame_loop(self.frames))
-        # untimed checks with the handler in: offsets change, and the frame shows its own
+    # -- the interleaved measurement -------------------------------------------------
+    def measure_interleaved(self):
+        """``repeats`` rounds of (base block, configuration block) pairs; see the module doc."""
+        tension = np.empty(self.n, _F)
+        tension_min = []
+
+        def read_tension(ev):
+            ev.attributes[bs.TENSION_ATTR].data.foreach_get("value", tension)
+            tension_min.append(float(tension.min()))
+
+        paired = [c for c in CONFIGS if c != "base"]
+        times = {c: [] for c in paired}  # per configuration: its block's frame times, per repeat
+        base = {c: [] for c in paired}  # the same for the base block next to it
+        for rep in range(self.repeats):
+            t = pc()
+            seq = [(config, pair) for pair in paired for config in ("base", pair)]
+            for config, pair in (seq if rep % 2 == 0 else seq[::-1]):
+                self.set_config(config)
+                extra = read_tension if config == "tension" else None
+                self.frame_loop(self.warm, extra)
+                (base if config == "base" else times)[pair].append(self.frame_loop(self.frames, extra))
+            log(f"  repeat {rep + 1}/{self.repeats}: " + "  ".join(
+                f"{c} {fmt(ms(times[c][-1]))} (base {fmt(ms(base[c][-1]))})" for c in paired)
+                + f"  [{pc() - t:.1f} s]")
+        self.set_config("wrinkles")
+        log(f"  tension min over frames {fmt(min(tension_min, default=None), '.4f')}, varies: "
+            f"{len(set(np.round(tension_min, 6))) > 1}")
+
+        def flat(blocks):
+            return [x for block in blocks for x in block]
+
+        pooled = {c: flat(times[c]) for c in paired}
+        pooled_base = flat(flat(base.values()))
+        med = {c: [ms(block) for block in times[c]] for c in paired}
+        med_base = {c: [ms(block) for block in base[c]] for c in paired}
+        diff = {c: [sub(a, b) for a, b in zip(med[c], med_base[c])] for c in paired}
+        per = {
+            "gn_ratio": [ratio(a, b) for a, b in zip(diff["wrinkles"], diff["tension"])],
+            "gn_ratio_pulling": [ratio(a, b) for a, b in zip(diff["pulling"], diff["tension"])],
+            "gn_displace_ratio": [ratio(a, b) for a, b in zip(diff["wrinkles"], diff["displace"])],
+            "playback_ratio": [ratio(a, b) for a, b in zip(med["wrinkles"], med_base["wrinkles"])],
+            "playback_ratio_pulling": [ratio(a, b) for a, b in zip(med["pulling"], med_base["pulling"])],
+        }
+        eval_ms = ms(pooled_base)
+        r = {"eval_ms": eval_ms, "eval_mean_ms": mean_ms(pooled_base)}
+        for name in ("tension", "displace", "displace_const"):
+            r[name + "_frame_ms"] = ms(pooled[name])
+            r["gn_" + name + "_ms"] = median_or_none(diff[name])
+        r["tension_min"] = min(tension_min, default=None)
+        for config, sfx in MUSCLE_CONFIGS:
+            r["playback_ms" + sfx] = ms(pooled[config])
+            r["playback_mean_ms" + sfx] = mean_ms(pooled[config])
+            r["stage_ms" + sfx] = median_or_none(diff[config])
+        r["playback_base_ms"] = eval_ms
+        for k, v in per.items():
+            r[k] = median_or_none(v)
+        r["per_repeat"] = {"frame_ms": med, "base_ms": med_base, "cost_ms": diff, **per}
+        log("  per repeat: " + "  ".join(f"{k} [{', '.join(fmt(x) for x in v)}]" for k, v in per.items()))
+        return r
+
+    def check_wrinkles(self, config, sfx):
+        """Untimed, handler in: offsets change, and the frame shows its own wrinkles."""
+        self.set_config(config)
+        self.frame_loop(self.warm)
         me = self.ob.data
         off = np.empty((self.n, 3), _F)
         skin = np.empty((self.n, 3), _F)
@@ -409,49 +692,65 @@ class Bench:
             untouched.append(np.array_equal(now, stored))
 
         self.frame_loop(self.warm + self.frames, check)
-        b, w = ms(base), ms(wrinkled)
-        log(f"  playback_ms {w:.2f} vs {b:.2f} without wrinkles (interleaved); offsets changed on "
-            f"{sum(changed)}/{len(changed)} frames, max |offset| per frame {min(mags) * 1000:.3f}.."
-            f"{max(mags) * 1000:.3f} mm, max |pos - (skin + offset)| {max(acc):.2e}, original mesh "
-            f"untouched (in place, no second evaluation) on {sum(untouched)}/{len(untouched)} frames")
-        return {"playback_ms": w, "playback_mean_ms": mean_ms(wrinkled), "playback_base_ms": b,
-                "stage_ms": w - b, "offsets_changed_frames": int(sum(changed)),
-                "checked_frames": len(changed), "in_place_frames": int(sum(untouched)),
-                "max_offset_mm": max(mags) * 1000.0, "stage_applied_err": max(acc)}
+        r = {"offsets_changed_frames": int(sum(changed)), "checked_frames": len(changed),
+             "in_place_frames": int(sum(untouched)),
+             "max_offset_mm": max(mags) * 1000.0 if mags else None,
+             "stage_applied_err": max(acc) if acc else None}
+        log(f"  [{config}] offsets changed on {sum(changed)}/{len(changed)} frames, max |offset| per "
+            f"frame {fmt(min(mags, default=None) * 1000 if mags else None, '.3f')}.."
+            f"{fmt(r['max_offset_mm'], '.3f')} mm, max |pos - (skin + offset)| "
+            f"{fmt(r['stage_applied_err'], '.2e')}, original mesh untouched (in place, no second "
+            f"evaluation) on {sum(untouched)}/{len(untouched)} frames")
+        return {k + sfx: v for k, v in r.items()}
 
-    def profile(self, plan, show):
-        st = self.state
+    def profile(self, plan, show, config):
         contraction = np.array([m.ewrinkles_muscle.contraction
                                 for m in muscle_objects.live_muscles(self.ob)], np.float64)
         self.scene.frame_set(self.frames[len(self.frames) // 2])
         ev = self.ob.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
         skin = meshio.read_vector_prefix(ev, stage.SKIN_ATTR, self.n, np.empty((self.n, 3), _F))
-        ref = system.evaluate(plan, skin, contraction, 1.0, out=np.zeros((self.n, 3), _F))
-        steps = {}
-        for _ in range(40):
-            got, t = evaluate_steps(plan, skin, contraction, 1.0, np.zeros((self.n, 3), _F))
-            for k, v in t.items():
-                steps.setdefault(k, []).append(v)
-        same = np.array_equal(got, ref)
+        out = np.zeros((self.n, 3), _F)
+        r = {}
         tight = []
         for _ in range(40):
             c = pc()
-            system.evaluate(plan, skin, contraction, 1.0, out=st.out)
+            system.evaluate(plan, skin, contraction, 1.0, out=out)
             tight.append(pc() - c)
-        steps = {k: float(np.median(v) * 1000) for k, v in steps.items()}
-        total = sum(steps.values())
+        r["compute_tight_loop_ms"] = ms(tight)
+        try:
+            ref = system.evaluate(plan, skin, contraction, 1.0, out=np.zeros((self.n, 3), _F))
+            steps = {}
+            for _ in range(40):
+                got, t = evaluate_steps(plan, skin, contraction, 1.0, np.zeros((self.n, 3), _F))
+                for k, v in t.items():
+                    steps.setdefault(k, []).append(v)
+            same = bool(np.array_equal(got, ref))
+            steps = {k: float(np.median(v) * 1000) for k, v in steps.items()}
+            r["evaluate_steps_ms"] = {k: round(v, 4) for k, v in steps.items()}
+            r["evaluate_replica_exact"] = same
+        except Exception as exc:  # noqa: BLE001 - the replica follows the add-on's internals
+            steps, same = {}, None
+            r["evaluate_steps_ms"], r["evaluate_replica_exact"] = None, None
+            r["evaluate_steps_error"] = repr(exc)
+            log(f"  evaluate() step replica failed ({exc!r}): the add-on's internals changed")
         if show:
-            log(f"  evaluate() step by step (median of 40, replica identical to evaluate: {same}), "
-                f"total {total:.3f} ms:")
-            for k, v in sorted(steps.items(), key=lambda kv: -kv[1]):
-                log(f"    {k:22s} {v:7.3f} ms  {100 * v / total:5.1f} %")
-            log_profile("evaluate() calls", 14,
-                        lambda: system.evaluate(plan, skin, contraction, 1.0, out=st.out))
+            total = sum(steps.values())
+            if steps:
+                log(f"  [{config}] evaluate() step by step (median of 40, replica identical to "
+                    f"evaluate: {same}), total {total:.3f} ms:")
+                for k, v in sorted(steps.items(), key=lambda kv: -kv[1]):
+                    log(f"    {k:22s} {v:7.3f} ms  {100 * v / total if total else 0.0:5.1f} %")
+            log_profile(f"[{config}] evaluate() calls", 14,
+                        lambda: system.evaluate(plan, skin, contraction, 1.0, out=out))
             dg = bpy.context.evaluated_depsgraph_get()
-            log_profile("pipeline.update_scene(in_place=True) calls (the handler)", 16,
-                        lambda: pipeline.update_scene(self.scene, dg, in_place=True))
+            self.handler(False)
+            try:
+                log_profile(f"[{config}] pipeline.update_scene(in_place=True) calls (the handler)", 16,
+                            lambda: pipeline.update_scene(self.scene, dg, in_place=True))
+            finally:
+                self.handler(True)
             bpy.context.evaluated_depsgraph_get()
-        return steps, same, ms(tight)
+        return r
 
 
 def log_profile(what, rows, call, times=40):
@@ -505,31 +804,52 @@ def evaluate_steps(plan, skin, contraction, strength, out):
     return out, t
 
 
-def run_size(label, target, args):
-    log(f"[{label}] target {target} verts")
+
+def run_size(label, target, args, rig, r):
+    """Measure one head size on one rig into ``r`` (filled as it goes, so a failure keeps
+    what was measured)."""
+    log(f"[{rig} {label}] target {target} verts")
     t0 = pc()
     bs.clear_scene()
     pipeline._cache.clear()
-    b = Bench(target, args.warm, args.frames, args.rig)
-    b.build()
-    r = {"verts": b.n, "head": b.source}
-    r.update(b.measure_eval_and_tension())
-    plan = b.add_wrinkles()
-    r["region_verts"] = int(len(plan.verts))
-    r["region_sizes"] = b.region_report(plan)
-    r.update(b.measure_split(plan))
-    r.update(b.measure_playback())
-    r["gn_ratio"] = r["stage_ms"] / r["gn_tension_ms"] if r["gn_tension_ms"] > 0 else None
-    r["playback_ratio"] = r["playback_ms"] / r["playback_base_ms"]
-    steps, same, tight = b.profile(plan, show=(label == args.profile_at))
-    r["compute_tight_loop_ms"] = tight
-    r["evaluate_steps_ms"] = {k: round(v, 4) for k, v in steps.items()}
-    r["evaluate_replica_exact"] = bool(same)
-    log(f"  => stage {r['stage_ms']:.2f} ms (handler {r['update_face_ms']:.3f}: read {r['read_ms']:.3f}, "
-        f"compute {r['compute_ms']:.3f}, write {r['write_ms']:.3f}); gn_tension {r['gn_tension_ms']:.2f} ms, "
-        f"gn_ratio {r['gn_ratio']:.2f}; playback {r['playback_ms']:.2f} vs {r['playback_base_ms']:.2f} "
-        f"= x{r['playback_ratio']:.2f}  [{pc() - t0:.1f} s]")
-    return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in r.items()}
+    b = Bench(target, args.warm, args.frames, rig, args.repeats)
+    r.update(b.build())
+    r.update({"verts": b.n, "head": b.source})
+    r.update(b.add_references())
+    r.update(b.add_wrinkles())
+    show = label == args.profile_at
+    for config, sfx in MUSCLE_CONFIGS:
+        # the hand-timed parts reach into the add-on's internals, which change under work:
+        # a failure here is recorded and the interleaved measurement still runs
+        try:
+            b.set_config(config)
+            b.frame_loop(b.warm)  # (re)builds the plan of this configuration
+            plan = b.plan()
+            b.log_plan(plan, config)
+            r["region_verts" + sfx] = int(len(plan.verts))
+            if not sfx:
+                r["region_sizes"] = b.region_report(plan)
+            r.update({k + sfx: v for k, v in b.measure_split(plan).items()})
+            r.update({k + sfx: v for k, v in b.profile(plan, show, config).items()})
+        except Exception as exc:  # noqa: BLE001
+            r["split_error" + sfx] = repr(exc)
+            log(f"  [{config}] hand-timed parts FAILED (the add-on's internals changed?):")
+            log(traceback.format_exc())
+            b.handler(True)
+    r.update(b.measure_interleaved())
+    for config, sfx in MUSCLE_CONFIGS:
+        r.update(b.check_wrinkles(config, sfx))
+    g = r.get
+    log(f"  => wrinkles-only: stage {fmt(g('stage_ms'))} ms (handler {fmt(g('update_face_ms'), '.3f')}: "
+        f"read {fmt(g('read_ms'), '.3f')}, compute {fmt(g('compute_ms'), '.3f')}, write "
+        f"{fmt(g('write_ms'), '.3f')}); pulling: stage {fmt(g('stage_ms_pulling'))} ms (handler "
+        f"{fmt(g('update_face_ms_pulling'), '.3f')}, compute {fmt(g('compute_ms_pulling'), '.3f')})")
+    log(f"  => GN tension {fmt(g('gn_tension_ms'))} ms, GN displace {fmt(g('gn_displace_ms'))} ms "
+        f"(constant height {fmt(g('gn_displace_const_ms'))} ms); gn_ratio {fmt(g('gn_ratio'))} "
+        f"(pulling {fmt(g('gn_ratio_pulling'))}), gn_displace_ratio {fmt(g('gn_displace_ratio'))}; "
+        f"playback {fmt(g('playback_ms'))} vs {fmt(g('playback_base_ms'))} = x{fmt(g('playback_ratio'))} "
+        f"(pulling {fmt(g('playback_ms_pulling'))} = x{fmt(g('playback_ratio_pulling'))})  "
+        f"[{pc() - t0:.1f} s]")
 
 
 def tree_fingerprint():
@@ -544,28 +864,72 @@ def tree_fingerprint():
     return h.hexdigest()[:10]
 
 
+def run_rig(rig, args):
+    """{size label: figures} for one rig; True in second place if a size failed."""
+    out, failed = {}, False
+    for label in args.sizes.split(","):
+        target = int(float(label.lower().rstrip("k")) * 1000)
+        r = out[label] = {}
+        try:
+            run_size(label, target, args, rig, r)
+        except Exception as exc:  # noqa: BLE001 - keep what was measured, print the JSON anyway
+            failed = True
+            r["error"] = repr(exc)
+            log(f"  [{rig} {label}] FAILED:")
+            log(traceback.format_exc())
+        out[label] = clean(r)
+    return out, failed
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--rig", choices=("light", "arkit"), default="light",
-                    help="light: BrowsUp + jaw bone; arkit: 52 animated shape keys + jaw bone")
+    ap.add_argument("--rig", choices=("light", "arkit", "both"), default="light",
+                    help="light: BrowsUp + jaw bone; arkit: 52 animated shape keys + jaw bone; "
+                    "both: arkit then light, one JSON line")
     ap.add_argument("--sizes", default="10k,50k,200k")
     ap.add_argument("--frames", type=int, default=40)
     ap.add_argument("--warm", type=int, default=5)
+    ap.add_argument("--repeats", type=int, default=3,
+                    help="interleaved repeats; every ratio is the median of the per-repeat ratios")
     ap.add_argument("--profile-at", default="50k")
     args = ap.parse_args()
-    log(f"bpy {bpy.app.version_string}, numpy {np.__version__}, {os.cpu_count()} cpus, rig {args.rig}")
+    if args.repeats < 3:
+        ap.error("--repeats must be at least 3 (every ratio is a median of repeats)")
+    rigs = ("arkit", "light") if args.rig == "both" else (args.rig,)
+    log(f"bpy {bpy.app.version_string}, numpy {np.__version__}, {os.cpu_count()} cpus, "
+        f"rig {args.rig}, {args.repeats} repeats")
     t0 = pc()
-    result = {"bpy": bpy.app.version_string, "rig": args.rig, "tree": tree_fingerprint(),
-              "loadavg_start": round(os.getloadavg()[0], 2)}
+    meta = {"bpy": bpy.app.version_string, "rig": args.rig, "tree": tree_fingerprint(),
+            "repeats": args.repeats, "frames": args.frames, "warm": args.warm,
+            "loadavg_start": round(os.getloadavg()[0], 2)}
+    results, loads, failed = {}, {}, False
     try:
-        for label in args.sizes.split(","):
-            target = int(float(label.lower().rstrip("k")) * 1000)
-            result[label] = run_size(label, target, args)
+        for rig in rigs:
+            start = round(os.getloadavg()[0], 2)
+            results[rig], bad = run_rig(rig, args)
+            failed = failed or bad
+            loads[rig] = [start, round(os.getloadavg()[0], 2)]
+    except BaseException:  # noqa: BLE001 - interrupted: still print what was measured
+        failed = True
+        log(traceback.format_exc())
     finally:
         log(f"total {pc() - t0:.1f} s")
-        result["loadavg_end"] = round(os.getloadavg()[0], 2)
-        bpy.ops.wm.read_factory_settings(use_empty=True)  # bpy 4.5 hangs at exit otherwise
-    print(json.dumps(result), flush=True)
+        meta["loadavg_end"] = round(os.getloadavg()[0], 2)
+        try:
+            bpy.ops.wm.read_factory_settings(use_empty=True)  # bpy 4.5 hangs at exit otherwise
+        except Exception:  # noqa: BLE001
+            log(traceback.format_exc())
+    if args.rig == "both":
+        meta["rigs"] = list(rigs)
+        del meta["rig"]
+        meta["loadavg"] = loads
+        result = {"meta": meta, **results}
+    else:
+        end = meta.pop("loadavg_end")
+        result = {**meta, **results.get(args.rig, {}), "loadavg_end": end}
+    print(json.dumps(clean(result)), flush=True)
+    if failed:
+        sys.exit(1)
 
 
 if __name__ == "__main__":
