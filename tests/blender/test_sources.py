@@ -46,8 +46,9 @@ class Bump(WrinkleSource):
     def inputs(self, face, static):
         return (face.ewrinkles_face.test_bump.height,)
 
-    def contribute(self, face, static, skin):
-        return combine.Contribution(height=static.profile * np.float32(face.ewrinkles_face.test_bump.height))
+    def contribute(self, face, static, skin, inputs):
+        (height,) = inputs
+        return combine.Contribution(height=static.profile * np.float32(height))
 
     def draw(self, layout, context, face):
         layout.prop(face.ewrinkles_face.test_bump, "height")

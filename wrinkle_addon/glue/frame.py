@@ -90,9 +90,13 @@ def forget(ob, source_name=None):
             state.plan_key = None
 
 
-def _topology(state, me):
-    """Re-read the rest mesh when its topology or rest positions changed."""
+def _topology(state, me, changes=None):
+    """Re-read the rest mesh when its topology or rest positions changed.  ``changes`` (see
+    :func:`_static`): an edit of the mesh tags it with every flag, transform included;
+    animation (shape keys) tags only its geometry, and then the rest cannot have changed."""
     key = meshio.topology_key(me)
+    if state.key == key and changes is not None and not changes.get(me.session_uid, (False,))[0]:
+        return False
     if state.key == key:  # same counts: compare the rest shape in a reused buffer
         state.scratch = meshio.read_vectors(me, "position", state.scratch)
         if np.array_equal(state.scratch, state.mesh.rest):
@@ -211,7 +215,7 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
     state = _cache.get(ob.session_uid)
     if state is None:
         state = _cache[ob.session_uid] = _FaceState()
-    _topology(state, me)
+    _topology(state, me, changes)
     n = len(state.mesh.rest)
     if len(ev.vertices) < n:
         status.set(ob, CHANNEL, f'The modifiers of "{ob.name}" remove vertices: wrinkles need them all')
@@ -223,7 +227,8 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
         old_skin, old_inputs = state.orig_inputs
         if old_inputs == inputs and np.array_equal(old_skin, skin):
             return False
-    contributions = [s.contribute(ob, statics[s.name], skin) for s in active]
+    contributions = [s.contribute(ob, statics[s.name], skin, frame_in)
+                     for s, frame_in in zip(active, inputs[1:])]
     for s in registry.sources():
         status.set(ob, s.name, s.problems(ob, statics[s.name]) if s in active else "")
     _write_shading(ob, active, statics, contributions)
@@ -243,14 +248,23 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
     return True
 
 
-def _scan(scene):
+_is_face = {}  # session_uid -> whether a wrinkle source works on that object
+
+
+def _scan(scene, changes=None):
     """The faces any wrinkle source works on, and the session_uid of every object, in one
-    pass."""
+    pass.  With ``changes`` (viewport frames), only objects Blender updated are looked at
+    again: a property set on an object tags it."""
     found, in_scene = [], set()
     shading = [s for s in registry.sources() if not s.geometric]
     for ob in scene.objects:
-        in_scene.add(ob.session_uid)
-        if ob.type == "MESH" and (ob.ewrinkles_face.enabled or any(s.active(ob) for s in shading)):
+        uid = ob.session_uid
+        in_scene.add(uid)
+        face = _is_face.get(uid) if changes is not None and uid not in changes else None
+        if face is None:
+            face = _is_face[uid] = ob.type == "MESH" and (
+                ob.ewrinkles_face.enabled or any(s.active(ob) for s in shading))
+        if face:
             found.append(ob)
     return found, in_scene
 
@@ -262,7 +276,7 @@ def _changes(depsgraph):
 
 
 def update_scene(scene, depsgraph, only_if_changed=False, in_place=False, changes=None):
-    found, in_scene = _scan(scene)
+    found, in_scene = _scan(scene, changes)
     meshes = [ob.data for ob in found if ob.ewrinkles_face.enabled]
     for ob in found:
         if ob.ewrinkles_face.enabled and meshes.count(ob.data) > 1:  # they would overwrite each other
@@ -344,6 +358,7 @@ def on_save_pre(*_args):
 @persistent
 def on_load_post(*_args):
     _cache.clear()
+    _is_face.clear()
     status.clear()
 
 
@@ -352,6 +367,7 @@ def on_undo_post(*_args):
     # Undo reloads the data: the next frame rebuilds every face's cache from scratch
     # rather than trust the IDs Blender reports as updated.
     _cache.clear()
+    _is_face.clear()
 
 
 def refresh_all(context):
@@ -409,4 +425,5 @@ def unregister():
         while fn in handlers:
             handlers.remove(fn)
     _cache.clear()
+    _is_face.clear()
     status.clear()

@@ -67,12 +67,14 @@ class WrinkleSource:
         return None
 
     def inputs(self, face, static):
-        """The frame's inputs besides the skin (e.g. contractions), to skip unchanged
-        frames; must support ``==``.  Default: none."""
+        """The frame's inputs besides the skin (e.g. contractions), read once per frame and
+        handed to :meth:`contribute`; compared with ``==`` to skip unchanged frames.
+        Default: none."""
         return ()
 
-    def contribute(self, face, static, skin):
-        """This frame's :class:`core.combine.Contribution` for the skin ``skin`` (N, 3)."""
+    def contribute(self, face, static, skin, inputs):
+        """This frame's :class:`core.combine.Contribution` for the skin ``skin`` (N, 3) and
+        this frame's ``inputs`` (what :meth:`inputs` returned)."""
         return combine.Contribution()
 
     def write_shading(self, face, static, name, values):

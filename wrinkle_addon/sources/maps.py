@@ -30,10 +30,11 @@ class MapSource(WrinkleSource):
     def inputs(self, face, static):
         return (float(face.ewrinkles_face.maps.tension_gain),)
 
-    def contribute(self, face, static, skin):
+    def contribute(self, face, static, skin, inputs):
         rest_length, edges, vertex_masks = static
         compression = jimenez.vertex_compression(skin, edges, rest_length)
-        values = jimenez.zone_tension(vertex_masks, compression, face.ewrinkles_face.maps.tension_gain)
+        (gain,) = inputs
+        values = jimenez.zone_tension(vertex_masks, compression, gain)
         return Contribution(shading={"zone_weights": values})
 
     def write_shading(self, face, static, name, values):
