@@ -21,6 +21,9 @@ Measured on bpy 4.5.4 and 5.2.3 (docs/architecture.md, "Measured Blender facts")
   is reloaded from its file or its packed copy.  Packing first keeps the pixels: a
   packed image reloads what was packed.  ``tag_as_data`` tags images the user made
   without losing their pixels.
+* In memory a byte image takes 4 bytes a pixel (``depth`` 32) and a float image 16 (``depth``
+  128, RGBA float32).  There is no half-float buffer: an EXR saved as half loads with
+  ``depth`` 128 as well, packed or not.  So the baked maps are 8-bit unless asked for floats.
 * A generated image is lost on save unless it is packed and has a user: ``store`` packs
   it (byte images pack as 8-bit PNG, float ones as 32-bit float EXR, both lossless) and
   gives it a fake user.
@@ -217,7 +220,8 @@ def store(name, pixels, *, float_buffer=False, non_color=True, image=None):
     otherwise makes a new one, moves the old one's users to it and deletes the old one.
     The result is tagged Non-Color (``non_color``), packed into the .blend and given a
     fake user, so it survives saving and reopening the file.  Byte images keep 8 bits
-    per channel; ``float_buffer`` keeps 32-bit floats.
+    per channel (4 bytes a pixel in memory); ``float_buffer`` keeps 32-bit floats (16 bytes
+    a pixel).
     """
     pixels = _rgba(pixels)
     h, w = pixels.shape[:2]

@@ -59,6 +59,12 @@ class WRINKLE_OT_bake_wrinkle_map(bpy.types.Operator):
         "the active render UV map)",
         default="",
     )
+    float_precision: BoolProperty(
+        name="Float Precision",
+        description="Store the map as 32-bit floats (16 bytes a pixel in memory) instead of 8 bits "
+        "per channel (4 bytes a pixel; slopes in steps of 1/127.5, at most 0.004 off)",
+        default=False,
+    )
     image_name: StringProperty(
         name="Image",
         description="Name of the image to create or replace (empty: \"<face> Wrinkle PD\")",
@@ -77,8 +83,9 @@ class WRINKLE_OT_bake_wrinkle_map(bpy.types.Operator):
             pd = mapbake.bake_wrinkle_map(face, int(self.resolution), self.mode, self.uv_map,
                                           progress=progress, smooth=self.smooth)
             name = self.image_name or f"{face.name} Wrinkle PD"
-            # 32-bit float: 8 bits would quantise the slopes to steps of 1/128
-            image = images.store(name, pd, float_buffer=True, non_color=True)
+            # 8 bits by default: a quarter of the memory of floats (Blender holds no half
+            # floats), slopes within 0.004 of the float bake (docs/model.md)
+            image = images.store(name, pd, float_buffer=self.float_precision, non_color=True)
         _assign_if_empty(face, "map_a", image)
         flat = float(np.abs(pd[..., :2] - 0.5).max()) < 1e-6
         if flat:

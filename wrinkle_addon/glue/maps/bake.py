@@ -31,7 +31,8 @@ MODES = (
      "are summed. The map shows every wrinkle the muscles can make"),
     ("POSE", "Current Pose",
      "The wrinkles of the current frame: the deformed skin (shape keys, bones) and the "
-     "muscles' current contractions"),
+     "muscles' current contractions, with slopes measured on the posed skin, so the map "
+     "shades like the geometric wrinkles in this pose"),
 )
 MAP_RESOLUTIONS = tuple((str(r), f"{r} x {r}", f"Bake a {r} x {r} pixel map")
                         for r in (256, 512, 1024, 2048, 4096))
@@ -161,6 +162,14 @@ def bake_layers(face, mode, muscles=None, surface=None):
     :func:`bake_wrinkle_map` joins the fields with :func:`layer_weights`.  "POSE": one
     field.
     """
+    return _layers(face, mode, muscles, surface)[:3]
+
+
+def _layers(face, mode, muscles=None, surface=None):
+    """:func:`bake_layers` and the skin (V, 3) float32 to take the slopes on, in face-local
+    units: the rest mesh for "MUSCLES" (its wrinkles belong to no one pose); for "POSE"
+    the posed skin the geometric wrinkles are displaced from, the deformed skin plus the
+    muscles' pull when the face shows it (Enable Wrinkles on)."""
     if mode not in ("MUSCLES", "POSE"):
         raise BakeError(f"Unknown bake mode {mode!r}")
     surface = surface or Surface(face, need_uv=False)
@@ -173,7 +182,10 @@ def bake_layers(face, mode, muscles=None, surface=None):
         skin = evaluated_skin(face, len(rest))
         contraction = np.array([m.ewrinkles_muscle.contraction for m in muscles], np.float64)
         h = system.heights(plan, skin, contraction, strength)
-        return np.asarray(h, np.float32)[:, None], np.zeros(len(rest), np.int64), np.array([-1])
+        if face.ewrinkles_face.enabled:  # the face shows the pull: with strength 0, the pull alone
+            skin = skin + system.evaluate(plan, skin, contraction, 0.0)
+        skin = np.where(np.isfinite(skin), skin, rest).astype(np.float32)
+        return np.asarray(h, np.float32)[:, None], np.zeros(len(rest), np.int64), np.array([-1]), skin
     zone = _vertex_zone(face, surface, muscles)
     present, layer = np.unique(zone, return_inverse=True)
     fields = np.zeros((len(rest), len(present)), np.float32)
@@ -181,21 +193,32 @@ def bake_layers(face, mode, muscles=None, surface=None):
         keep = np.isin(present, _zones_of(ob))
         if keep.any():
             fields[:, keep] += system.formed_heights(plan, i, strength)[:, None]
-    return fields, layer.ravel(), present
+    return fields, layer.ravel(), present, rest
 
 
 def layer_weights(surface, layer, zone_of_layer, softness):
-    """Soft weights (V, L) of the fields of :func:`bake_layers`, rows summing to 1: each
-    vertex's layer softened over ``softness`` (face-local units) exactly as Generate Masks
-    softens the zones, so the smooth slopes pass from one zone's wrinkles to the next over
-    the masks' soft border (cutting the heights at the zone border put a streak of steep
-    slopes along it).  ``soften`` divides rows summing to more than 1 by their sum, and as
-    the diffusion keeps rows summing to 1 and only scales each layer up, that is every row.
+    """Soft weights (V, L) of the fields of :func:`bake_layers`, rows summing to 1, so the
+    smooth slopes pass from one zone's wrinkles to the next over the masks' soft border
+    (cutting the heights at the zone border put a streak of steep slopes along it).
+
+    Each vertex's layer is softened over ``softness`` (face-local units) exactly as
+    Generate Masks softens the zones, giving memberships ``m_l`` (rows summing to 1:
+    ``soften`` divides rows summing to more than 1 by their sum, and the diffusion keeps
+    rows summing to 1 and only scales each layer up).  The weights are ``m_l^2 / sum m^2``.
+    Where two zones' masks overlap, one map must serve both: an expression that lights
+    zone l alone shows ``m_l M`` where it wants ``m_l g_l``, and the map ``M`` that makes
+    ``sum_l (m_l |M - g_l|)^2`` least is ``sum_l m_l^2 g_l / sum_l m_l^2``.  Weights ``m_l``
+    themselves let the Corrugator's frown lines show through Surprise on the inner
+    forehead, and the Frontalis' furrows through Anger between the brows: on the ICT head
+    the shown slopes were 16 % off the zones' own for Surprise and 47 % for Anger, against
+    14 % and 38 % with these weights (Joy 19 % and 12 %; Fear 19 % and 20 %).
     """
     if len(zone_of_layer) == 1:
         return np.ones((len(layer), 1))
     one_hot = (layer[:, None] == np.arange(len(zone_of_layer))).astype(np.float64)
-    return _soften(surface, one_hot, zone_of_layer[layer] >= 0, softness)
+    m = np.asarray(_soften(surface, one_hot, zone_of_layer[layer] >= 0, softness), np.float64) ** 2
+    total = m.sum(axis=1, keepdims=True)
+    return np.where(total > 0, m / np.where(total > 0, total, 1.0), one_hot)
 
 
 def _soften(surface, memberships, inside, softness):
@@ -241,17 +264,21 @@ def _start(face, resolution, uv_map, progress):
 def bake_wrinkle_map(face, resolution, mode, uv_map=None, muscles=None, progress=None, smooth=True):
     """The PD wrinkle map (R, R, 4) float32 of ``face`` (see :func:`bake_height` for
     ``mode`` and ``muscles``; ``core.raster.slopes`` for the formula).  The slopes are in
-    the tangent space of the rest mesh and ``uv_map`` (empty: see :func:`uv_layer`), in
-    world lengths (``core.raster.to_world``: the object's scale, even non-uniform).
+    the tangent space of ``uv_map`` (empty: see :func:`uv_layer`) on the rest mesh for
+    "MUSCLES" and on the posed skin for "POSE" (:func:`_layers`), in world lengths
+    (``core.raster.to_world``: the object's scale, even non-uniform).  The Normal Map
+    node takes its tangents from the mesh it shades, the posed one: slopes of the rest
+    layout came out turned and too small where the pose compresses the skin (38 % too small
+    and turned by 14 degrees on the test patch squashed to 70 %).
     ``smooth``: slopes from vertex gradients interpolated over the triangles, like smooth
     shading of the geometric wrinkles; else finite differences per pixel, which show the
     triangles as facets.  ``progress(fraction, message)`` is called between the steps.
     Raises BakeError."""
     R, step, surface = _start(face, resolution, uv_map, progress)
     step(0.05, "wrinkle heights")
-    fields, layer, zone_of_layer = bake_layers(face, mode, muscles, surface)
+    fields, layer, zone_of_layer, skin = _layers(face, mode, muscles, surface)
     try:  # in world lengths: a non-uniform object scale changes the slopes
-        rest, fields = raster.to_world(surface.rest, surface.tris, fields, face.matrix_world.to_3x3())
+        rest, fields = raster.to_world(skin, surface.tris, fields, face.matrix_world.to_3x3())
     except ValueError as exc:
         raise BakeError(f'"{face.name}": {exc}; give it a scale to bake') from None
     step(0.3, f"rasterising {R} x {R}")
