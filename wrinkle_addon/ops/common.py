@@ -8,19 +8,20 @@ from ..glue import faces
 from ..glue.errors import WrinkleError
 
 
+def face_ok(cls, context, **needs):
+    """Whether the active face passes :func:`glue.faces.problem` with ``needs``; otherwise
+    the reason becomes the poll message (the disabled button's tooltip).  For polls that
+    check more than the face."""
+    why = faces.problem(faces.active(context), **needs)
+    if why:
+        cls.poll_message_set(why)
+        return False
+    return True
+
+
 def face_poll(**needs):
-    """A ``poll`` classmethod: the active face passes :func:`glue.faces.problem` with
-    ``needs``; otherwise the reason becomes the poll message (the disabled button's
-    tooltip)."""
-
-    def poll(cls, context):
-        why = faces.problem(faces.active(context), **needs)
-        if why:
-            cls.poll_message_set(why)
-            return False
-        return True
-
-    return classmethod(poll)
+    """A ``poll`` classmethod that checks only the face (:func:`face_ok`)."""
+    return classmethod(lambda cls, context: face_ok(cls, context, **needs))
 
 
 def guarded(execute):

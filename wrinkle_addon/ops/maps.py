@@ -9,7 +9,7 @@ from ..core.muscles import presets
 from ..glue import faces
 from ..glue.maps import material as wrinklemaps
 from ..glue.muscles import objects as muscle_objects
-from .common import face_poll, guarded
+from .common import face_ok, face_poll, guarded
 
 # ARKit shape keys that carry each of Table 1.1's expressions, best first (a face's own
 # names are tried with and without the _L suffix).
@@ -74,7 +74,7 @@ class WRINKLE_OT_remove_wrinkle_maps(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if not face_poll(polygons=False).__func__(cls, context):
+        if not face_ok(cls, context, polygons=False):
             return False
         if _face(context).ewrinkles_face.maps.material is None:
             cls.poll_message_set("This face has no wrinkle maps set up")
@@ -121,7 +121,7 @@ class WRINKLE_OT_remove_map_expression(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if not face_poll(polygons=False).__func__(cls, context):
+        if not face_ok(cls, context, polygons=False):
             return False
         if len(_face(context).ewrinkles_face.maps.expressions) == 0:
             cls.poll_message_set("The table is empty")
