@@ -47,7 +47,7 @@ is the MEDIAN over the frames (this machine is shared; means are in
 The interleaved measurement.  One *repeat* runs, for each of five configurations
 of the same scene, a base block right next to that configuration's block:
 
-    base wrinkles  base tension  base pulling  base displace  base displace_const
+    base wrinkles  base tension  base pulling  base displace  base displace_const  base floor
 
 and the next repeat runs the same sequence reversed (each configuration's block
 then comes just before its base block), ``--repeats`` times (default 3, at least
@@ -62,6 +62,11 @@ positions with ``foreach_get`` (+ reading ``tension`` in the tension blocks):
 ``tension``         the GN tension reference on (below), nothing else.
 ``displace``        the GN displacement reference on (textured height).
 ``displace_const``  the GN displacement reference with a constant height on.
+``floor``           the floor of any NumPy stage: the Wrinkles modifier on and, in
+                    place of the add-on's handler, a bare one that reads the
+                    stored skin, adds a zero offset and writes the positions into
+                    the evaluated mesh (``foreach_get`` + ``foreach_set`` +
+                    ``Mesh.update()``), with no wrinkle math and no checks.
 ``wrinkles``        the Wrinkles modifier on and the frame handler in, muscles
                     wrinkles-only: the add-on as the viewport runs it.
 ``pulling``         the same with every muscle pulling.
@@ -106,6 +111,10 @@ below), so it is not exactly the difference of the pooled frame times:
     inside the evaluation, the handler, the in-place write).
 ``playback_ms_pulling`` / ``playback_mean_ms_pulling`` / ``stage_ms_pulling``
     The same from the pulling blocks.
+``floor_ms`` / ``floor_frame_ms``
+    The cost of the floor configuration (median of d_r(floor)) and its pooled
+    frame time: what reading and writing the face and the GN output stage cost
+    before any wrinkle is computed.  No NumPy stage can cost less.
 
 Ratios, every one the MEDIAN OF PER-REPEAT RATIOS: in repeat r, m_r(config) is
 the median frame time of the configuration's block and b_r(config) that of the
@@ -121,6 +130,9 @@ left is null (n/a).  The per-repeat values are in ``per_repeat``.
 ``gn_displace_ratio``        d_r(wrinkles) / d_r(displace)
 ``playback_ratio``           m_r(wrinkles) / b_r(wrinkles)
 ``playback_ratio_pulling``   m_r(pulling) / b_r(pulling)
+``floor_ratio``              d_r(floor) / d_r(tension)
+``floor_displace_ratio``     d_r(floor) / d_r(displace)
+``playback_ratio_floor``     m_r(floor) / b_r(floor)
 ``per_repeat``               ``frame_ms``: m_r, ``base_ms``: b_r and
                              ``cost_ms``: d_r, per configuration (a list each,
                              one entry per repeat, in repeat order); and each
@@ -244,7 +256,7 @@ _F = np.float32
 MUSCLE_LANDMARKS = ("hairline_center", "glabella", "brow_outer_L", "eye_L", "nose_tip",
                     "mouth_corner_L", "chin", "cheekbone_L")
 # base, then the configurations each measured next to a base block, in a repeat's order
-CONFIGS = ("base", "wrinkles", "tension", "pulling", "displace", "displace_const")
+CONFIGS = ("base", "wrinkles", "tension", "pulling", "displace", "displace_const", "floor")
 MUSCLE_CONFIGS = (("wrinkles", ""), ("pulling", "_pulling"))
 # contraction keys (frame, value) per role; never 0, so every muscle pulls on every frame
 CONTRACTION_KEYS = {
@@ -324,6 +336,7 @@ class Bench:
         self.mods = {}
         self.stage_mod = None
         self.muscles = []
+        self._floor_skin = self._floor_offset = None
         self.handler(True)
 
     # -- scene -------------------------------------------------------------
@@ -336,6 +349,8 @@ class Bench:
         self.ob = ob
         self.n = len(ob.data.vertices)
         self.pos_buf = np.empty(self.n * 3, _F)
+        self._floor_skin = np.empty(self.n * 3, _F)
+        self._floor_offset = np.zeros(self.n * 3, _F)
         self.uv_name, made = bs.ensure_uv_map(ob)
         if self.rig_kind == "arkit":
             keys, moved = bs.add_arkit_keys(ob, self.landmarks)
@@ -399,19 +414,41 @@ class Bench:
             if m.ewrinkles_muscle.wrinkles_only == pulling:
                 m.ewrinkles_muscle.wrinkles_only = not pulling
 
+    def floor_handler(self, on):
+        """The ``floor`` configuration's handler in or out (see the module doc)."""
+        handlers = bpy.app.handlers.frame_change_post
+        if on and self._floor not in handlers:
+            handlers.append(self._floor)
+        while not on and self._floor in handlers:
+            handlers.remove(self._floor)
+
+    def _floor(self, scene, depsgraph):
+        """The bare minimum of a NumPy stage: read the skin the Wrinkles modifier stored,
+        add an offset (zero: no wrinkle math at all), write the positions, drop normals."""
+        ev = self.ob.evaluated_get(depsgraph).data
+        skin = self._floor_skin
+        ev.attributes[stage.SKIN_ATTR].data.foreach_get("vector", skin)
+        np.add(skin, self._floor_offset, out=skin)
+        ev.attributes["position"].data.foreach_set("vector", skin)
+        ev.update()
+
     def set_config(self, config):
         """One of CONFIGS: which modifiers are on, the handler, the muscles' pull."""
         wrinkles = config in ("wrinkles", "pulling")
         self.handler(False)
+        self.floor_handler(False)
         if self.stage_mod is not None:
             self.stage_mod.show_viewport = False
             if wrinkles:
                 self.set_pulling(config == "pulling")
         for name, mod in self.mods.items():
             mod.show_viewport = name == config
-        if wrinkles:
+        if wrinkles or config == "floor":
             self.stage_mod.show_viewport = True
+        if wrinkles:
             self.handler(True)
+        if config == "floor":
+            self.floor_handler(True)
 
     # -- the references: GN tension and GN displacement by tension (untimed setup) --------
     def add_references(self):
@@ -648,14 +685,17 @@ class Bench:
             "gn_ratio": [ratio(a, b) for a, b in zip(diff["wrinkles"], diff["tension"])],
             "gn_ratio_pulling": [ratio(a, b) for a, b in zip(diff["pulling"], diff["tension"])],
             "gn_displace_ratio": [ratio(a, b) for a, b in zip(diff["wrinkles"], diff["displace"])],
+            "floor_ratio": [ratio(a, b) for a, b in zip(diff["floor"], diff["tension"])],
+            "floor_displace_ratio": [ratio(a, b) for a, b in zip(diff["floor"], diff["displace"])],
             "playback_ratio": [ratio(a, b) for a, b in zip(med["wrinkles"], med_base["wrinkles"])],
+            "playback_ratio_floor": [ratio(a, b) for a, b in zip(med["floor"], med_base["floor"])],
             "playback_ratio_pulling": [ratio(a, b) for a, b in zip(med["pulling"], med_base["pulling"])],
         }
         eval_ms = ms(pooled_base)
         r = {"eval_ms": eval_ms, "eval_mean_ms": mean_ms(pooled_base)}
-        for name in ("tension", "displace", "displace_const"):
+        for name in ("tension", "displace", "displace_const", "floor"):
             r[name + "_frame_ms"] = ms(pooled[name])
-            r["gn_" + name + "_ms"] = median_or_none(diff[name])
+            r[("" if name == "floor" else "gn_") + name + "_ms"] = median_or_none(diff[name])
         r["tension_min"] = min(tension_min, default=None)
         for config, sfx in MUSCLE_CONFIGS:
             r["playback_ms" + sfx] = ms(pooled[config])
@@ -777,7 +817,7 @@ def evaluate_steps(plan, skin, contraction, strength, out):
     t["gather+finite"] = pc() - c
     c = pc()
     offset = system.waters_pull(plan, s, contraction)
-    pulled = s + offset
+    pulled = s if offset is None else s + offset
     t["waters_pull"] = pc() - c
     c = pc()
     eps = system.compression(plan, pulled)
@@ -791,7 +831,7 @@ def evaluate_steps(plan, skin, contraction, strength, out):
     c = pc()
     s2 = np.take(np.asarray(skin, dtype=_F).reshape(-1), o.flat)
     total = np.zeros_like(s2)
-    if len(o.offset_index[0]):
+    if len(o.offset_index[0]) and offset is not None:
         total[:, o.offset_index[0]] += offset
     normal = core_mesh.normals_at(s2 + total, o.tris, o.normal_sum)
     t["normals"] = pc() - c
@@ -850,6 +890,9 @@ def run_size(label, target, args, rig, r):
         f"playback {fmt(g('playback_ms'))} vs {fmt(g('playback_base_ms'))} = x{fmt(g('playback_ratio'))} "
         f"(pulling {fmt(g('playback_ms_pulling'))} = x{fmt(g('playback_ratio_pulling'))})  "
         f"[{pc() - t0:.1f} s]")
+    log(f"  => floor (read + write + GN stage, no math) {fmt(g('floor_ms'))} ms: floor_ratio "
+        f"{fmt(g('floor_ratio'))}, floor_displace_ratio {fmt(g('floor_displace_ratio'))}, playback "
+        f"x{fmt(g('playback_ratio_floor'))}")
 
 
 def tree_fingerprint():

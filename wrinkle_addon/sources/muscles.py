@@ -50,7 +50,7 @@ class MuscleSource(WrinkleSource):
 
     def static_key(self, face, in_scene):
         muscles = objects.live_muscles(face, in_scene)
-        return (np.array(face.matrix_world).tobytes(),) + tuple(objects.signature(m) for m in muscles)
+        return (objects.matrix_key(face),) + tuple(objects.signature(m) for m in muscles)
 
     def build(self, face, mesh, in_scene):
         refs = _live_refs(face, in_scene)

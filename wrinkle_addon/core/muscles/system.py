@@ -159,15 +159,16 @@ def build_plan(rest, edges, tris, muscles):
 
 
 def waters_pull(plan, skin, contraction):
-    """The summed Waters pull (3, U) float32 at the plan's local vertices ``skin`` (3, U).
+    """The summed Waters pull (3, U) float32 at the plan's local vertices ``skin`` (3, U),
+    or None when no muscle pulls.
 
     Every per-frame array here is one component per row, (3, K): 1-D gathers
     and sums are several times faster in NumPy than on interleaved (K, 3).
     """
-    out = np.zeros((3, len(plan.verts)), dtype=_F)
     gain = (np.nan_to_num(np.asarray(contraction, dtype=np.float64)) * plan.muscle_pull).astype(_F)
     if len(plan.pull_vert) == 0 or not gain.any():
-        return out
+        return None
+    out = np.zeros((3, len(plan.verts)), dtype=_F)
     k = gain[plan.pull_muscle] * plan.pull_weight
     rows = plan.pull_vert
     # linear muscles: toward the attachment from where the skin is now, never past it;
@@ -197,10 +198,10 @@ def _local_skin(plan, skin):
 
 
 def _pull_and_heights(plan, s, contraction, strength):
-    """Waters pull (3, U), the pulled skin (3, U) and eq. 4's summed height W at the
-    wrinkled local vertices ``plan.height_sum.keys``."""
+    """Waters pull (3, U, or None when no muscle pulls), the pulled skin (3, U) and eq. 4's
+    summed height W at the wrinkled local vertices ``plan.height_sum.keys``."""
     offset = waters_pull(plan, s, contraction)
-    pulled = s + offset
+    pulled = s if offset is None else s + offset
     w = plan.row_amp * zhang.anisotropic(compression(plan, pulled))
     return offset, pulled, plan.height_sum.sum(w) * _F(np.nan_to_num(strength))
 

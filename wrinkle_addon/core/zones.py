@@ -1,0 +1,91 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The face's no-wrinkle zones: the eyelids and the lips, from the facial landmarks.
+
+Real skin does not fold into expression lines on the eyelids (thin skin that slides over
+the eye) or on the red of the lips, and the eye and mouth openings are where a muscle's
+pull and its wrinkles must stop.  Every wrinkle source multiplies its heights (and the
+muscles their pull) by :func:`keep_out`, which is 0 inside those zones and rises to 1
+with a C¹ smoothstep over a margin around them.
+
+The zones are ellipses in the face's front plane (x, z), sized from the landmarks so that
+they fit any head (landmark names as ``core.muscles.presets.LANDMARKS``; face-local
+coordinates, the face looking toward -Y, Z up, the character's left +X; the right side is
+the left mirrored about the glabella's x):
+
+* **eyelid**: centred on the eye; half-width 0.42 of the half brow width (glabella to outer
+  brow, about 50 mm on an adult, so 21 mm: the palpebral fissure's 15 mm plus the lid's
+  corners); upwards 0.8 of the eye-to-glabella height (the upper lid and its fold stop
+  below the brow), downwards 0.6 of it (the lower lid);
+* **lip**: centred on the mouth line between the corners; half-width 1.05 of the
+  corner-to-midline distance; upwards 0.4 of the mouth-to-nose-tip height (the upper
+  vermilion, not the philtrum above it), downwards 0.3 of the mouth-to-chin height.
+
+Only points in front are concerned (no more than a half brow width behind the eye or
+the mouth corner), so the back of the head never matches.  Pure NumPy, no loop over
+vertices.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+EYELID = {"half_width": 0.42, "up": 0.8, "down": 0.6}
+LIP = {"half_width": 1.05, "up": 0.4, "down": 0.3}
+MARGIN = 0.35  # the keep-out ramp, in units of the ellipse's own radius
+
+
+@dataclass
+class Zones:
+    eyelid: np.ndarray  # (N,) bool: inside an eyelid zone (either side)
+    lip: np.ndarray  # (N,) bool: inside the lip zone
+    radius: np.ndarray  # (N,) float64: elliptic radius to the nearest zone (<= 1 inside)
+
+    @property
+    def inside(self):
+        return self.eyelid | self.lip
+
+
+def _radius(p, centre, half_width, up, down, depth):
+    """Elliptic radius (N,) of the points ``p`` around ``centre`` in the (x, z) plane; inf
+    for points more than ``depth`` behind the centre (+Y is backwards)."""
+    dx = (p[:, 0] - centre[0]) / max(half_width, 1e-9)
+    dz = p[:, 2] - centre[2]
+    dz = dz / np.where(dz >= 0.0, max(up, 1e-9), max(down, 1e-9))
+    r = np.sqrt(dx * dx + dz * dz)
+    return np.where(p[:, 1] - centre[1] <= depth, r, np.inf)
+
+
+def face_zones(rest, landmarks):
+    """The eyelid and lip zones of the points ``rest`` (N, 3) (see the module doc)."""
+    p = np.asarray(rest, np.float64).reshape(-1, 3)
+    lm = {k: np.asarray(v, np.float64) for k, v in landmarks.items()}
+    g, bo, eye = lm["glabella"], lm["brow_outer_L"], lm["eye_L"]
+    mouth, nose, chin = lm["mouth_corner_L"], lm["nose_tip"], lm["chin"]
+    bw = abs(bo[0] - g[0])
+    lid_h = max(g[2] - eye[2], 0.2 * bw)
+    lids = []
+    for sx in (1.0, -1.0):
+        c = eye.copy()
+        c[0] = g[0] + sx * (eye[0] - g[0])
+        lids.append(_radius(p, c, EYELID["half_width"] * bw, EYELID["up"] * lid_h,
+                            EYELID["down"] * lid_h, bw))
+    eyelid_r = np.minimum(*lids)
+    c = mouth.copy()
+    c[0] = g[0]
+    hw = abs(mouth[0] - g[0])
+    lip_r = _radius(p, c, LIP["half_width"] * hw, LIP["up"] * max(nose[2] - mouth[2], 0.0),
+                    LIP["down"] * max(mouth[2] - chin[2], 0.0), bw)
+    return Zones(eyelid=eyelid_r <= 1.0, lip=lip_r <= 1.0, radius=np.minimum(eyelid_r, lip_r))
+
+
+def smoothstep(t):
+    """3t² − 2t³ on [0, 1], clamped: C¹, 0 at t <= 0 and 1 at t >= 1."""
+    t = np.clip(t, 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def keep_out(rest, landmarks, margin=MARGIN):
+    """Per-point weight (N,) float32: 0 inside the eyelid and lip zones, rising with a C¹
+    smoothstep to 1 at ``margin`` (in units of the zone's radius) outside them."""
+    r = face_zones(rest, landmarks).radius
+    return smoothstep((r - 1.0) / max(margin, 1e-9)).astype(np.float32)
