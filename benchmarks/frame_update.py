@@ -823,7 +823,7 @@ def evaluate_steps(plan, skin, contraction, strength, out):
     eps = system.compression(plan, pulled)
     t["compression"] = pc() - c
     c = pc()
-    w = plan.row_amp * zhang.anisotropic(eps)
+    w = plan.row_amp * system.smooth_rows(plan, zhang.anisotropic(eps))
     height = plan.height_sum.sum(w) * _F(strength)
     t["anisotropic+heights"] = pc() - c
     c = pc()

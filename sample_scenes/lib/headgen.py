@@ -161,73 +161,44 @@ def _nose_relief(x, z, detail):
 
 
 def _mouth_relief(x, z, detail):
-    """Lips, philtrum, mouth line and chin as a height (m) over (x, z)."""
+    """Lips (vermilion border, cupid's bow), philtrum, mouth line and chin as a
+    height (m) over (x, z)."""
     ax = _soft_abs(x)
-    s = ax / 0.0255  # 1 at the mouth corners
-    z_m = 0.0480 - 0.0008 * s * s - 0.0002 * np.exp(-0.5 * (x / 0.003) ** 2)  # mouth line
-    lip_w = np.clip(1.0 - s * s, 0.0, None) ** 0.6
-    # Upper lip: the skin slopes forward from the nose to a rolled vermilion.
-    skin = 0.0040 * _smoothstep(0.0705, 0.0575, z) * np.exp(-((x / 0.022) ** 4))
-    roll = 0.0042 * np.exp(-0.5 * ((z - 0.0538 + 0.0015 * s * s) / 0.0036) ** 2) * lip_w
-    upper = (skin + roll) * (0.45 + 0.55 * _smoothstep(z_m - 0.0004, z_m + 0.0030, z))
-    # Lower lip: a fuller roll under the mouth line.
-    lower = 0.0046 * np.exp(-0.5 * ((z - 0.0418 - 0.0012 * s * s) / 0.0042) ** 2) * lip_w
-    lower = lower * (0.45 + 0.55 * _smoothstep(z_m + 0.0004, z_m - 0.0035, z))
-    # Philtrum columns.
-    phil = _smoothstep(0.0570, 0.0605, z) * _smoothstep(0.0695, 0.0655, z)
-    r = upper + lower + 0.0007 * phil * np.exp(-0.5 * ((ax - 0.0045) / 0.0015) ** 2)
-    # Mouth line and the dimples at its corners.
-    r -= 0.0012 * _groove(z - z_m, 0.0008, detail) * np.exp(-((x / 0.027) ** 6))
-    r -= 0.0015 * np.exp(-0.5 * (((ax - 0.0265) / 0.003) ** 2 + ((z - 0.0475) / 0.004) ** 2))
-    # Mentolabial sulcus and chin.
-    r -= 0.0025 * np.exp(-0.5 * ((z - 0.0310) / 0.0040) ** 2) * np.exp(-0.5 * (x / 0.016) ** 2)
-    r += 0.0030 * np.exp(-0.5 * ((z - 0.0180) / 0.0080) ** 2) * np.exp(-0.5 * (x / 0.011) ** 2)
+    s = np.clip(ax / 0.0225, 0.0, 1.6)  # 1 at the mouth corners (|x| = 25 mm)
+    z_m = 0.0478 - 0.0010 * s * s - 0.0003 * np.exp(-0.5 * (x / 0.0030) ** 2)  # mouth line
+    # Vermilion borders: the cupid's bow peaks at x = +-5.5 mm over a dip on the
+    # midline; both borders run down to the corners.
+    bow = 0.0011 * np.exp(-0.5 * ((ax - 0.0058) / 0.0030) ** 2) - 0.0005 * np.exp(-0.5 * (x / 0.0022) ** 2)
+    z_ub = z_m + (0.0074 + bow) * np.clip(1.0 - s ** 2.2, 0.0, None) ** 0.55
+    z_lb = z_m - 0.0095 * np.clip(1.0 - s ** 2.6, 0.0, None) ** 0.6
+    w = max(0.0005, 0.6 * detail)
+    # Upper lip: skin sloping forward from the nose to the border ...
+    skin = 0.0012 * _smoothstep(0.0700, z_ub - 0.002, z) * np.exp(-((x / 0.024) ** 4))
+    # ... and the vermilion, a roll that stands proud of it, pouting a little.
+    u = np.clip((z - z_m) / np.maximum(z_ub - z_m, 1e-4), 0.0, 1.0)
+    inside_up = _smoothstep(z_ub + w, z_ub - w, z) * _smoothstep(z_m - w, z_m + w, z)
+    v_up = (0.0024 * np.sin(np.pi * (0.25 + 0.75 * u)) ** 0.7 + 0.0005) * inside_up
+    # Lower lip: a fuller roll under the mouth line, bounded by its border.
+    u2 = np.clip((z_m - z) / np.maximum(z_m - z_lb, 1e-4), 0.0, 1.0)
+    inside_lo = _smoothstep(z_lb - w, z_lb + w, z) * _smoothstep(z_m + w, z_m - w, z)
+    v_lo = (0.0030 * np.sin(np.pi * (0.15 + 0.85 * u2)) ** 0.6 + 0.0005) * inside_lo
+    fade = np.clip(1.0 - s ** 2, 0.0, None) ** 0.5
+    r = skin + (v_up + v_lo) * fade
+    # The white roll along the upper border.
+    r += 0.0004 * _groove(z - z_ub, 0.0005, detail) * fade
+    # Philtrum: two columns from the columella to the bow's peaks, a dip between.
+    t = _smoothstep(z_ub, z_ub + 0.004, z) * _smoothstep(0.0690, 0.0640, z)
+    colx = 0.0040 + 0.0018 * _smoothstep(0.066, 0.057, z)
+    r += t * (0.0009 * np.exp(-0.5 * ((ax - colx) / 0.0014) ** 2)
+              - 0.0004 * np.exp(-0.5 * (x / 0.0018) ** 2))
+    # Mouth line (the lips meet) and the corners of the mouth (modiolus).
+    r -= 0.0011 * _groove(z - z_m, 0.0006, detail) * np.exp(-((x / 0.026) ** 6))
+    r -= 0.0016 * np.exp(-0.5 * (((ax - 0.0237) / 0.0028) ** 2 + ((z - 0.0470) / 0.0035) ** 2))
+    r += 0.0012 * np.exp(-0.5 * (((ax - 0.0275) / 0.0045) ** 2 + ((z - 0.0480) / 0.0070) ** 2))
+    # Mentolabial sulcus and the chin.
+    r -= 0.0028 * np.exp(-0.5 * ((z - 0.0330) / 0.0040) ** 2) * np.exp(-0.5 * (x / 0.016) ** 2)
+    r += 0.0052 * np.exp(-0.5 * ((z - 0.0215) / 0.0085) ** 2) * np.exp(-0.5 * (x / 0.012) ** 2)
     return r
-
-
-def head_field(p, detail=0.0):
-    """Implicit function of the head: negative inside, ~signed distance (m).
-
-    ``detail`` (m) is the narrowest groove the mesh can show; narrower ones
-    (lid lines, mouth line, creases) are widened to it so they do not alias.
-    """
-    p = np.asarray(p, dtype=np.float64)
-    m = _mirror(p)
-    x, y, z = p[:, 0], p[:, 1], p[:, 2]
-    ax = m[:, 0]
-
-    # Cranium: an egg, narrower at the forehead than over the parietals.
-    widen = 1.0 + 0.06 * np.clip(y / 0.1, -1.0, 1.0)
-    pc = np.stack([x / widen, y, z], axis=1)
-    f = _superellipsoid(pc, (0.0, 0.012, 0.136), (0.075, 0.099, 0.095), 2.5)
-
-    # Mid-face (maxilla, cheeks) and the mouth region.
-    f = _smin(f, _ellipsoid(p, (0.0, -0.030, 0.090), (0.060, 0.067, 0.050)), 0.02)
-    f = _smin(f, _ellipsoid(p, (0.0, -0.044, 0.054), (0.036, 0.057, 0.040)), 0.02)
-
-    # Mandible: chin bar, bodies to the jaw angles, rami up to the ears.
-    jaw = _round_cone(m, (0.0, -0.068, 0.021), (0.008, -0.067, 0.022), 0.014, 0.014)
-    jaw = _smin(jaw, _round_cone(m, (0.008, -0.067, 0.022), (0.041, -0.008, 0.033),
-                                 0.014, 0.011), 0.01)
-    jaw = _smin(jaw, _round_cone(m, (0.041, -0.008, 0.033), (0.049, 0.012, 0.085),
-                                 0.011, 0.012), 0.01)
-    f = _smin(f, jaw, 0.03)
-
-    # Neck.
-    f = _smin(f, _round_cone(p, *_NECK), 0.028)
-
-    # Eyeballs under closed lids.
-    f = _smin(f, _ellipsoid(m, (0.032, -0.0695, 0.1165), (0.013, 0.013, 0.013)), 0.003)
-
-    # Relief along the normal, evaluated only where it can be non-zero.
-    front = y < -0.02
-    if front.any():
-        pf = p[front]
-        f[front] -= _face_relief(pf, m[front], detail) * _smoothstep(-0.02, -0.06, pf[:, 1])
-    ear = (ax > 0.045) & (np.abs(y - 0.016) < 0.0165) & (np.abs(z - 0.104) < 0.030)
-    if ear.any():
-        f[ear] -= _ear_relief(p[ear], ax[ear])
-    return f
 
 
 def _face_relief(p, m, detail):
@@ -235,51 +206,166 @@ def _face_relief(p, m, detail):
     x, z = p[:, 0], p[:, 2]
     ax = m[:, 0]
     r = _nose_relief(x, z, detail)
-    # Brow ridge and glabella.
-    zb = 0.1335 + 0.04 * ax * ax
-    r += 0.0040 * np.exp(-0.5 * ((z - zb) / 0.0065) ** 2) * np.exp(-0.5 * (ax / 0.042) ** 2)
-    r += 0.0025 * _gauss(p, (0.0, -0.095, 0.129), (0.012, 0.02, 0.009))
+    # Brow ridge (strongest over the inner half of each brow) and the glabella.
+    zb = 0.1340 + 0.030 * ax * ax
+    r += 0.0048 * np.exp(-0.5 * ((z - zb) / 0.0060) ** 2) * np.exp(-0.5 * ((ax - 0.018) / 0.026) ** 2)
+    r += 0.0020 * _gauss(p, (0.0, -0.095, 0.130), (0.010, 0.02, 0.008))
     # Frontal eminences and the flat of the lower forehead.
-    r += 0.0040 * _gauss(p, (0.0, -0.090, 0.147), (0.035, 0.03, 0.012))
-    r += 0.0040 * _gauss(m, (0.022, -0.085, 0.168), (0.022, 0.03, 0.020))
-    # Eye sockets, lids and temples.
-    r -= 0.0058 * _gauss(m, (0.032, -0.080, 0.1180), (0.015, 0.02, 0.011))
-    ex = (ax - 0.0318) / 0.0150
-    lid = np.clip(1.0 - ex * ex, 0.0, None) ** 2
-    z_lid = 0.1150 + 0.0010 * ex - 0.0012 * ex * ex
-    r -= 0.0011 * _groove(z - z_lid, 0.0008, detail) * lid
-    z_crease = 0.1240 + 0.0010 * ex - 0.0025 * ex * ex
-    r -= 0.0010 * _groove(z - z_crease, 0.0012, detail) * lid
-    z_tear = 0.1065 - 0.0008 * ex + 0.0020 * ex * ex
-    r -= 0.0007 * _groove(z - z_tear, 0.0020, detail) * lid
-    r -= 0.0030 * _gauss(m, (0.066, -0.040, 0.130), (0.012, 0.02, 0.015))
+    r += 0.0035 * _gauss(p, (0.0, -0.090, 0.150), (0.035, 0.03, 0.012))
+    r += 0.0035 * _gauss(m, (0.024, -0.085, 0.170), (0.022, 0.03, 0.020))
+    # Eye sockets: deep enough behind the lids for the eyeballs to show; the
+    # upper-lid sulcus under the brow; the temples.
+    r -= 0.0125 * _gauss(m, (0.0280, -0.080, 0.1170), (0.0110, 0.02, 0.0085))
+    r -= 0.0020 * _gauss(m, (0.0330, -0.080, 0.1255), (0.012, 0.02, 0.0035))
+    r -= 0.0018 * _gauss(m, (0.066, -0.040, 0.128), (0.010, 0.02, 0.014))
+    # Lower lid and the tear trough below it.
+    ex = (ax - 0.0315) / 0.016
+    lidw = np.clip(1.0 - ex * ex, 0.0, None) ** 2
+    z_tear = 0.1060 - 0.0010 * ex + 0.0025 * ex * ex
+    r -= 0.0008 * _groove(z - z_tear, 0.0022, detail) * lidw
     # Cheekbones and the fullness of the cheeks.
-    r += 0.0040 * _gauss(m, (0.052, -0.066, 0.098), (0.015, 0.02, 0.010))
-    r += 0.0035 * _gauss(m, (0.044, -0.075, 0.070), (0.016, 0.03, 0.020))
-    # Nasolabial folds: fuller cheek lateral to a shallow crease.
-    a, b = (0.0195, 0.0745), (0.0340, 0.0420)
+    r += 0.0045 * _gauss(m, (0.050, -0.066, 0.099), (0.015, 0.02, 0.010))
+    r += 0.0030 * _gauss(m, (0.064, -0.040, 0.098), (0.010, 0.03, 0.008))  # zygomatic arch
+    r += 0.0045 * _gauss(m, (0.040, -0.075, 0.074), (0.017, 0.03, 0.018))
+    # Nasolabial folds: the fuller cheek lateral to a crease from the ala to the
+    # side of the mouth.
+    a, b = (0.0205, 0.0720), (0.0330, 0.0400)
     d_fold, t_fold = _segment_distance_2d(ax, z, a, b)
     normal = np.array([a[1] - b[1], b[0] - a[0]]) / np.hypot(a[1] - b[1], b[0] - a[0])
     side = (ax - a[0]) * normal[0] + (z - a[1]) * normal[1]  # > 0 on the cheek side
-    taper = np.sin(np.pi * t_fold) ** 2
-    r -= 0.0005 * _groove(d_fold, 0.0018, detail) * taper
-    r += 0.0012 * np.exp(-0.5 * (d_fold / 0.0060) ** 2) * taper * _smoothstep(-0.002, 0.004, side)
+    taper = np.sin(np.pi * np.clip(0.15 + 0.85 * t_fold, 0.0, 1.0)) ** 1.5
+    r -= 0.0008 * _groove(d_fold, 0.0014, detail) * taper
+    r += 0.0020 * np.exp(-0.5 * (d_fold / 0.0065) ** 2) * taper * _smoothstep(-0.001, 0.004, side)
     r += _mouth_relief(x, z, detail)
     return r
 
 
-def _ear_relief(p, ax):
-    """Ears: relief on the side of the head, a rim (helix) around a hollow."""
-    y, z = p[:, 1], p[:, 2]
-    ey = (y - 0.016) / 0.0165
-    ez = (z - 0.104) / 0.030
-    er = np.hypot(ey, ez)
-    outline = np.clip(1.0 - er ** 4, 0.0, None)
-    lift = 0.006 + 0.011 * np.clip(0.5 * (ey + 1.0), 0.0, 1.0)  # stands out at the back
-    rim = np.exp(-0.5 * ((er - 0.82) / 0.12) ** 2)
-    hollow = np.exp(-0.5 * (np.hypot(ey + 0.15, (z - 0.100) / 0.016) / 0.55) ** 2)
-    ear = outline * lift * (0.55 + 0.45 * rim - 0.45 * hollow)
-    return ear * _smoothstep(0.045, 0.060, ax)
+_EAR_C = (0.019, 0.102)  # (y, z) of the middle of the ear
+
+
+def _ear_relief(p, ax, detail):
+    """Ears as relief on the side of the head: helix, scapha, antihelix, concha,
+    tragus and lobe, leaning back 12 degrees."""
+    y, z = p[:, 1] - _EAR_C[0], p[:, 2] - _EAR_C[1]
+    c, s_ = np.cos(np.radians(12.0)), np.sin(np.radians(12.0))
+    u = (c * y + s_ * z) / 0.0165  # toward the back of the head
+    v = (-s_ * y + c * z) / 0.031  # up
+    # Outline: an egg, narrower toward the lobe.
+    half = 1.0 - 0.28 * _smoothstep(0.2, -1.0, v)
+    e = np.hypot((u - 0.05) / half, v)
+    outline = _smoothstep(1.0, 0.80, e)
+    attach = _smoothstep(-1.0, -0.55, u)  # fades into the head in front
+    lift = (0.004 + 0.0075 * _smoothstep(-0.6, 1.0, u)) * attach
+    g = max(0.06, detail / 0.0165)
+    rim = np.exp(-0.5 * ((e - 0.83) / g) ** 2)  # helix
+    scapha = np.exp(-0.5 * ((e - 0.66) / g) ** 2) * _smoothstep(-0.3, 0.2, u + v)
+    # Antihelix: a ridge around the concha, open toward the front.
+    ea = np.hypot((u - 0.10) / 0.62, (v + 0.05) / 0.72)
+    anti = np.exp(-0.5 * ((ea - 0.95) / (1.2 * g)) ** 2) * _smoothstep(-0.5, 0.0, u + 0.6 * v)
+    concha = np.exp(-0.5 * (np.hypot((u + 0.05) / 0.42, (v + 0.12) / 0.40) ** 4))
+    lobe = _smoothstep(-0.45, -0.75, v) * _smoothstep(1.0, 0.7, e)
+    h = outline * lift * (0.60 + 0.40 * rim - 0.30 * scapha + 0.25 * anti - 0.85 * concha
+                          + 0.15 * lobe)
+    tragus = 0.0045 * np.exp(-0.5 * (((u + 0.62) / 0.13) ** 2 + ((v + 0.15) / 0.15) ** 2))
+    return (h + tragus) * _smoothstep(0.045, 0.060, ax)
+
+
+# Eye geometry (left eye; the right is mirrored). Metres.
+_EYE_C = np.array([0.0315, -0.0660, 0.1165])  # centre of the eyeball
+_EYE_R = 0.0122  # eyeball radius (the cornea bulges 1 mm more)
+_CANTHUS_IN = (0.0165, 0.1155)  # (x, z) of the inner corner of the eye
+_CANTHUS_OUT = (0.0455, 0.1185)  # outer corner: a slight upward canthal tilt
+
+
+def _fissure(ax, z):
+    """Signed vertical distance (m) into the palpebral fissure (> 0 between the
+    lid margins), and the position ``s`` (0 inner corner, 1 outer) along it."""
+    (xi, zi), (xo, zo) = _CANTHUS_IN, _CANTHUS_OUT
+    s = (ax - xi) / (xo - xi)
+    b = np.clip(4.0 * s * (1.0 - s), 0.0, None)
+    zc = zi + (zo - zi) * s
+    # The upper lid peaks a little medial of the pupil, the lower lid lateral of it.
+    upper = zc + 0.0056 * b ** 0.62 * (1.0 - 0.18 * (s - 0.42))
+    lower = zc - 0.0046 * b ** 0.95 * (1.0 + 0.20 * (s - 0.55))
+    return np.minimum(upper - z, z - lower), s
+
+
+def _eyes(m, detail):
+    """``m``: points with x folded by |x| (the eyes are far from the midline).
+    Eyeballs with the iris and pupil carved like a sculpture's, and the lids: a
+    shell over each eyeball that opens along the fissure."""
+    q = m - _EYE_C
+    r = np.sqrt(np.einsum("ij,ij->i", q, q))
+    rho = np.hypot(q[:, 0], q[:, 2])  # distance from the visual axis
+    cornea = 0.0011 * np.exp(-((rho / 0.0058) ** 4))  # the iris disc, its rim a step
+    pupil = 0.0007 * np.exp(-0.5 * (rho / 0.0017) ** 2)
+    ball = r - (_EYE_R + cornea - pupil)
+    o, s = _fissure(m[:, 0], m[:, 2])
+    w = max(0.0007, 0.7 * detail)
+    # Lid thickness over the ball: 2.4 mm, less toward the corners, sinking into the
+    # fissure. The shell is the lids; where it sinks the eyeball shows.
+    corner = np.clip(4.0 * s * (1.0 - s), 0.0, 1.0) ** 0.25
+    # Toward the corners the lids part more gently, so the rays from ORIGIN, which
+    # cross the outer corner obliquely, still meet one surface.
+    soft = w * (1.0 + 3.0 * (1.0 - corner))
+    thick = (0.0012 + 0.0014 * corner) - 0.0060 * (0.3 + 0.7 * corner) * _smoothstep(-0.2 * w, soft, o)
+    # The upper lid's skin folds up under the brow at the lid crease.
+    zc = 0.1165 + 0.0080 - 0.0030 * (2.0 * s - 1.0) ** 2
+    crease = _smoothstep(zc - 0.0015, zc + 0.0040, m[:, 2]) * _smoothstep(-0.1, 0.2, s) \
+        * _smoothstep(1.3, 0.8, s)
+    lids = r - (_EYE_R + thick + 0.0016 * crease)
+    return ball, lids
+
+
+def head_field(p, detail=0.0):
+    """Implicit function of the head: negative inside, ~signed distance (m).
+
+    ``detail`` (m) is the narrowest groove the mesh can show; narrower ones
+    (lid margins, mouth line, creases) are widened to it so they do not alias.
+    """
+    p = np.asarray(p, dtype=np.float64)
+    m = _mirror(p)
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    ax = m[:, 0]
+
+    # Cranium: an egg, narrower at the forehead than over the parietals.
+    widen = 1.0 + 0.07 * np.clip(y / 0.1, -1.0, 1.0)
+    pc = np.stack([x / widen, y, z], axis=1)
+    f = _superellipsoid(pc, (0.0, 0.014, 0.133), (0.074, 0.099, 0.090), 2.4)
+
+    # Mid-face (maxilla, cheeks) and the mouth region.
+    f = _smin(f, _ellipsoid(p, (0.0, -0.026, 0.088), (0.067, 0.068, 0.052)), 0.02)
+    f = _smin(f, _ellipsoid(p, (0.0, -0.042, 0.052), (0.044, 0.057, 0.042)), 0.035)
+
+    # Mandible: chin bar, bodies to the jaw angles, rami up to the ears.
+    jaw = _round_cone(m, (0.0, -0.068, 0.023), (0.010, -0.066, 0.024), 0.014, 0.014)
+    jaw = _smin(jaw, _round_cone(m, (0.010, -0.066, 0.024), (0.046, -0.006, 0.034),
+                                 0.014, 0.012), 0.01)
+    jaw = _smin(jaw, _round_cone(m, (0.046, -0.006, 0.034), (0.052, 0.010, 0.085),
+                                 0.012, 0.012), 0.01)
+    f = _smin(f, jaw, 0.025)
+
+    # Neck.
+    f = _smin(f, _round_cone(p, *_NECK), 0.028)
+
+    # Relief along the normal, evaluated only where it can be non-zero.
+    front = y < -0.02
+    if front.any():
+        pf = p[front]
+        f[front] -= _face_relief(pf, m[front], detail) * _smoothstep(-0.02, -0.06, pf[:, 1])
+    ear = (ax > 0.045) & (np.abs(y - _EAR_C[0]) < 0.024) & (np.abs(z - _EAR_C[1]) < 0.040)
+    if ear.any():
+        f[ear] -= _ear_relief(p[ear], ax[ear], detail)
+
+    # Eyes: the lids blend into the socket, the eyeballs show between them.
+    near = (np.abs(np.abs(x) - _EYE_C[0]) < 0.03) & (np.abs(z - _EYE_C[2]) < 0.03) & (y < -0.03)
+    if near.any():
+        pe = p[near].copy()
+        pe[:, 0] = np.abs(pe[:, 0])
+        ball, lids = _eyes(pe, detail)
+        fe = _smin(f[near], lids, 0.0022)
+        f[near] = np.minimum(fe, ball)
+    return f
 
 
 # --------------------------------------------------------------------------
@@ -333,12 +419,17 @@ def _project(starts, dirs, field, length=0.3, step=2.5e-4):
 # --------------------------------------------------------------------------
 # Grid layout
 # --------------------------------------------------------------------------
-def _warp(u, lo, hi, dense_lo, dense_hi, blend, sparse):
+def _warp(u, lo, hi, dense_lo, dense_hi, blend, sparse, ears=0.0):
     """Map uniform samples ``u`` in [0, 1] to [lo, hi], dense inside
-    [dense_lo, dense_hi] and ``sparse`` times as dense outside."""
+    [dense_lo, dense_hi] and ``sparse`` times as dense outside; with ``ears``,
+    that density over the ears (azimuths of 75-105 degrees either side)."""
     a = np.linspace(lo, hi, 4097)
     w = _smoothstep(dense_lo - blend, dense_lo, a) * (1.0 - _smoothstep(dense_hi, dense_hi + blend, a))
     rho = sparse + (1.0 - sparse) * w
+    if ears:
+        e = _smoothstep(np.radians(62), np.radians(78), np.abs(a)) \
+            * _smoothstep(np.radians(118), np.radians(102), np.abs(a))
+        rho = np.maximum(rho, ears * e)
     cum = np.concatenate([[0.0], np.cumsum(0.5 * (rho[1:] + rho[:-1]) * np.diff(a))])
     return np.interp(u * cum[-1], cum, a)
 
@@ -356,7 +447,7 @@ def _band_rays(cols, rows, field):
     """Ray origins and directions of the band, neck ring first, row-major."""
     s = np.linspace(-np.pi, np.pi, cols, endpoint=False)
     az0 = _warp((s + np.pi) / (2 * np.pi), -np.pi, np.pi, np.radians(-70), np.radians(70),
-                np.radians(30), 0.25)
+                np.radians(30), 0.25, ears=0.55)
     az0[0] = -np.pi
     rows_neck = max(3, int(round(0.07 * rows)))
     el = _warp(np.linspace(0.0, 1.0, rows - rows_neck), _EL_LOW, _EL_CAP,
@@ -496,15 +587,15 @@ _FRONT_LANDMARKS = {
     "brow_outer_L": (0.049, 0.1325),
     "hairline_center": (0.0, 0.188),
     "hairline_L": (0.032, 0.184),
-    "eye_L": (0.032, 0.1165),
+    "eye_L": (0.0315, 0.1165),
     "nose_bridge": (0.0, 0.112),
     "nose_ala_L": (0.0165, 0.0755),
     "cheekbone_L": (0.052, 0.098),
-    "mouth_corner_L": (0.0255, 0.0478),
-    "upper_lip": (0.0, 0.0535),
-    "lower_lip": (0.0, 0.0425),
-    "chin": (0.0, 0.018),
-    "jaw_L": (0.029, 0.020),
+    "mouth_corner_L": (0.0253, 0.0469),
+    "upper_lip": (0.0, 0.0510),
+    "lower_lip": (0.0, 0.0428),
+    "chin": (0.0, 0.0215),
+    "jaw_L": (0.029, 0.0235),
 }
 
 

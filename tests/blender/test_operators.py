@@ -34,11 +34,12 @@ def test_refine_keeps_uvs_shape_keys_vertex_groups_and_materials():
     keys["Basis"].points.foreach_get("co", basis)
     assert np.abs(brows - basis).max() > 0.005  # the new vertices carry the shape key too
     # every half cycle now spans at least 4 edges inside the wrinkling region
-    from wrinkle_addon.core.muscles import system
+    from wrinkle_addon.core.muscles import refinement
     from wrinkle_addon.glue import meshio
 
     core = [muscle_objects.to_core(muscle, face)]
-    assert len(system.refine_edges(meshio.read_vectors(me, "position"), meshio.read_edges(me), core, 4)) == 0
+    rest, edges = meshio.read_vectors(me, "position"), meshio.read_edges(me)
+    assert len(refinement.refine_edges(rest, edges, core, 4)) == 0
     bpy.context.scene.frame_set(2)
     assert pipeline.status_of(face) == ""
 

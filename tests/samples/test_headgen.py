@@ -236,3 +236,105 @@ def test_ict_loader_orientation():
     d = deltas[names.index("browInnerUp_L")]
     moved = np.linalg.norm(d, axis=1) > 0.5 * np.linalg.norm(d, axis=1).max()
     assert pos[moved, 0].mean() > 0 and d[moved, 2].mean() > 0
+
+
+def test_head_adult_proportions(head):
+    """Eye line at half the head height, face thirds, eye spacing one eye width,
+    nose and mouth widths, the jaw narrower than the cheekbones."""
+    p = head["positions"].astype(np.float64)
+    lm = head["landmarks"]
+    crown = p[:, 2].max()
+    midline = np.abs(p[:, 0]) < 0.004
+    menton = p[midline & (p[:, 1] < -0.04), 2].min()  # lowest point of the chin
+    eye_z = lm["eye_L"][2]
+    assert abs(eye_z - 0.5 * (crown + menton)) < 0.012 * (crown - menton) / 0.1
+    # Thirds: hairline-glabella, glabella-subnasale, subnasale-menton within 20 %.
+    subnasale = lm["nose_ala_L"][2] - 0.004
+    thirds = np.array([lm["hairline_center"][2] - lm["glabella"][2],
+                       lm["glabella"][2] - subnasale, subnasale - menton])
+    assert thirds.max() / thirds.min() < 1.25, thirds
+    # The fissure of one eye spans about the gap between the eyes.
+    (xi, _zi), (xo, _zo) = headgen._CANTHUS_IN, headgen._CANTHUS_OUT
+    assert 0.8 < (xo - xi) / (2 * xi) < 1.1
+    assert 0.055 < 2 * lm["eye_L"][0] < 0.070  # interpupillary distance
+    mouth = 2 * lm["mouth_corner_L"][0]
+    alae = 2 * lm["nose_ala_L"][0]
+    assert 0.045 < mouth < 0.056 and 0.028 < alae < 0.040 and mouth > 1.3 * alae
+
+    def width(z, y_max):
+        band = p[(np.abs(p[:, 2] - z) < 0.002) & (p[:, 1] < y_max)]
+        return np.ptp(band[:, 0])
+
+    cheeks = width(lm["cheekbone_L"][2], -0.03)
+    jaw = width(lm["mouth_corner_L"][2] - 0.015, -0.03)
+    assert 0.11 < cheeks < 0.15 and jaw < cheeks
+
+
+def _profile_y(z, x=0.0):
+    """Y of the front surface at (x, z), found by marching along +Y."""
+    return headgen._project(np.array([[x, -0.3, z]]), np.array([[0.0, 1.0, 0.0]]),
+                            headgen.head_field)[0, 1]
+
+
+def test_head_profile_has_the_features():
+    """Seen in profile: brow ridge over the nasion, a nose that stands out, lips in
+    front of the sulcus under them, the chin forward of that sulcus."""
+    glabella, nasion = _profile_y(0.130), min(_profile_y(z) for z in (0.119, 0.121, 0.123))
+    assert glabella < nasion - 0.001
+    nose = min(_profile_y(z) for z in np.arange(0.074, 0.090, 0.002))
+    subnasale = max(_profile_y(z) for z in np.arange(0.064, 0.074, 0.002))
+    assert subnasale - nose > 0.012  # the nose projects at least 12 mm
+    upper, lower = _profile_y(0.051), _profile_y(0.043)
+    sulcus, chin = _profile_y(0.033), _profile_y(0.022)
+    assert upper < subnasale and lower < sulcus - 0.003 and chin < sulcus - 0.001
+
+
+def test_head_eyes_open_between_lids():
+    """The eyeball shows in the fissure: at the pupil the surface is the cornea; just
+    above the upper lid margin and below the lower one the lids stand proud of it."""
+    cx, _cy, cz = headgen._EYE_C
+    pupil = _profile_y(cz, cx)
+    upper_lid = _profile_y(cz + 0.0075, cx)
+    lower_lid = _profile_y(cz - 0.0065, cx)
+    assert abs(pupil - (headgen._EYE_C[1] - headgen._EYE_R - 0.0004)) < 0.001
+    ball = headgen._EYE_C[1] - np.sqrt(headgen._EYE_R ** 2 - 0.0075 ** 2)
+    assert upper_lid < ball - 0.0008  # the lid covers the ball there
+    assert lower_lid < headgen._EYE_C[1] - np.sqrt(headgen._EYE_R ** 2 - 0.0065 ** 2) - 0.0008
+
+
+def test_head_ears_stand_out(head):
+    p = head["positions"].astype(np.float64)
+    lm = head["landmarks"]
+    side = p[(p[:, 1] > 0.0) & (p[:, 1] < 0.04)]
+    at_ear = side[(side[:, 2] > 0.08) & (side[:, 2] < 0.125)]
+    above = side[(side[:, 2] > 0.15) & (side[:, 2] < 0.16)]
+    assert np.abs(at_ear[:, 0]).max() > np.abs(above[:, 0]).max() + 0.005
+    ear = at_ear[np.argmax(at_ear[:, 0])]
+    assert lm["nose_ala_L"][2] < ear[2] < lm["brow_mid_L"][2]  # between brow and nose base
+
+
+def test_head_landmarks_at_the_features(head):
+    """Each landmark is the surface point at its feature (within 1 mm of the surface
+    of the field, and where the feature's geometry puts it)."""
+    lm = {k: v.astype(np.float64) for k, v in head["landmarks"].items()}
+    pts = np.array(list(lm.values()))
+    assert np.abs(headgen.head_field(pts)).max() < 0.001
+    # The eye landmark is the pupil: on the visual axis of the eyeball.
+    eye = lm["eye_L"]
+    assert np.hypot(eye[0] - headgen._EYE_C[0], eye[2] - headgen._EYE_C[2]) < 0.001
+    assert abs(eye[1] - (headgen._EYE_C[1] - headgen._EYE_R)) < 0.0015
+    # The nose tip is the most forward point; the lips are the most forward points of
+    # the mouth on the midline, above and below the mouth line.
+    assert lm["nose_tip"][1] <= head["positions"][:, 1].min() + 1e-6
+    p = head["positions"].astype(np.float64)
+    near = (np.abs(p[:, 0]) < 0.002) & (p[:, 1] < -0.09)
+    mouth = p[near & (p[:, 2] > 0.036) & (p[:, 2] < 0.060)]
+    upper = mouth[mouth[:, 2] > 0.0475]
+    lower = mouth[mouth[:, 2] < 0.0475]
+    assert lm["upper_lip"][1] < upper[:, 1].min() + 0.0015
+    assert lm["lower_lip"][1] < lower[:, 1].min() + 0.0015
+    # The mouth corner is where the lips meet at the side: the surface there is
+    # recessed from the lips by several millimetres.
+    assert lm["mouth_corner_L"][1] > lm["upper_lip"][1] + 0.006
+    # The chin in front of the mentolabial sulcus.
+    assert lm["chin"][1] < _profile_y(0.033) - 0.001

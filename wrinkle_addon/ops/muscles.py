@@ -20,7 +20,7 @@ from bpy.props import (
 from bpy_extras import view3d_utils
 from mathutils import Vector
 
-from ..core.muscles import presets
+from ..core.muscles import landmark_finder, presets
 from ..glue import drivers, faces
 from ..glue import frame as pipeline
 from ..glue.errors import WrinkleError
@@ -143,8 +143,9 @@ class WRINKLE_OT_add_muscle(bpy.types.Operator):
 
 
 class WRINKLE_OT_add_landmarks(bpy.types.Operator):
-    """Place the landmarks the facial muscle set is built from, guessed from the face's size.
-    Move them onto the right features, then run Add Facial Muscle Set"""
+    """Find the landmarks the facial muscle set is built from (from the eye and mouth
+    openings, the ARKit shape keys or the face's shape) and place them. Check them, move any
+    that is off onto its feature, then run Add Facial Muscle Set"""
 
     bl_idname = "wrinkle.add_landmarks"
     bl_label = "Place Landmarks"
@@ -154,8 +155,12 @@ class WRINKLE_OT_add_landmarks(bpy.types.Operator):
 
     @guarded
     def execute(self, context):
-        landmarks.place_landmarks(context, _face(context))
-        self.report({"INFO"}, "Move the landmarks (WL ...) onto the features, then Add Facial Muscle Set")
+        method, message = landmarks.place_landmarks(context, _face(context))
+        if message:
+            self.report({"WARNING"}, message)
+            return {"FINISHED"}
+        self.report({"INFO"}, f"Landmarks found from {landmark_finder.LABELS[method]}: check them "
+                              "(WL ...), then Add Facial Muscle Set")
         return {"FINISHED"}
 
 
@@ -302,8 +307,9 @@ class WRINKLE_OT_drive_contraction(bpy.types.Operator):
 
 
 class WRINKLE_OT_refine(bpy.types.Operator):
-    """Subdivide the faces in the wrinkling regions until every half wrinkle cycle spans at
-    least the given number of edges (keeps UVs, shape keys, vertex groups and materials)"""
+    """Split the edges where the wrinkles need it until every half wrinkle cycle spans at
+    least the given number of edges; new points follow the smooth surface (keeps UVs, shape
+    keys, vertex groups and materials)"""
 
     bl_idname = "wrinkle.refine"
     bl_label = "Refine Wrinkling Regions"
@@ -333,9 +339,13 @@ class WRINKLE_OT_refine(bpy.types.Operator):
             result = refine.refine(face, muscles, self.edges_per_half_cycle, self.max_vertices,
                                    progress=lambda i: progress(i, f"pass {i + 1}"))
         after = len(face.data.vertices)
-        if result.message:
+        if result.message:  # set only when the rule is still broken
             self.report({"WARNING"}, result.message)
-        self.report({"INFO"}, f"Refined {before} -> {after} vertices in {result.passes} passes")
+        elif result.passes == 0:
+            self.report({"INFO"}, f"Nothing to refine: every half cycle already spans "
+                                  f"{self.edges_per_half_cycle:g} edges")
+        else:
+            self.report({"INFO"}, f"Refined {before} -> {after} vertices in {result.passes} passes")
         pipeline.refresh_all(context)
         return {"FINISHED"}
 

@@ -121,6 +121,14 @@ class WrinkleMuscleSettings(bpy.types.PropertyGroup):
         default=0.03, min=0.0, soft_max=0.2, subtype="DISTANCE", unit="LENGTH",
         update=refresh,
     )
+    back_reach: FloatProperty(
+        name="Reach Behind",
+        description="Sheet muscle: how far the sheet also reaches behind its attachment line, as "
+        "a fraction of its length. That skin is pulled toward the line too, so the skin converges "
+        "on the line from both sides, as the forehead does when the brows rise (0: Waters' sheet)",
+        default=0.0, min=0.0, max=2.0, subtype="FACTOR",
+        update=refresh,
+    )
     lambda_w: FloatProperty(
         name="Wrinkling Region",
         description="Where the wrinkling region starts along the muscle, as a fraction of its "

@@ -5,7 +5,7 @@ wrinkle source: the muscles' pull and eq. 4's wrinkle height, from ``core.muscle
 import numpy as np
 
 from ..core.muscles import system
-from ..glue.muscles import objects
+from ..glue.muscles import landmarks, objects
 from ..glue.registry import WrinkleSource
 from ..ui import muscles as muscles_ui
 
@@ -13,10 +13,10 @@ from ..ui import muscles as muscles_ui
 class _Static:
     __slots__ = ("plan", "footprint", "refs", "n_refs", "names", "uids")
 
-    def __init__(self, plan, refs, n_refs, muscles):
+    def __init__(self, plan, refs, n_refs, muscles, marks):
         self.plan, self.footprint, self.refs, self.n_refs = plan, plan.footprint, refs, n_refs
         self.names = [m.name for m in muscles]
-        self.uids = frozenset(m.session_uid for m in muscles)
+        self.uids = frozenset(m.session_uid for m in muscles + marks)
 
 
 class _Contraction:
@@ -50,14 +50,19 @@ class MuscleSource(WrinkleSource):
 
     def static_key(self, face, in_scene):
         muscles = objects.live_muscles(face, in_scene)
-        return (objects.matrix_key(face),) + tuple(objects.signature(m) for m in muscles)
+        marks = landmarks.landmark_positions(face)
+        marks = None if marks is None else tuple(tuple(v) for v in marks.values())
+        return (objects.matrix_key(face), marks) + tuple(objects.signature(m) for m in muscles)
 
     def build(self, face, mesh, in_scene):
         refs = _live_refs(face, in_scene)
         muscles = [face.ewrinkles_face.muscles[i].object for i in refs]
         core = [objects.to_core(m, face) for m in muscles]
-        plan = system.build_plan(mesh.rest, mesh.edges, mesh.tris, core)
-        return _Static(plan, refs, len(face.ewrinkles_face.muscles), muscles)
+        # the landmarks, when placed, keep every muscle off the eyelids and the lips
+        keep = landmarks.keep_out(face, mesh.rest)
+        plan = system.build_plan(mesh.rest, mesh.edges, mesh.tris, core, keep_out=keep)
+        marks = landmarks.landmark_objects(face)
+        return _Static(plan, refs, len(face.ewrinkles_face.muscles), muscles, marks)
 
     def unchanged(self, face, static, changes, in_scene):
         # Muscles are placed in the face's space: a moved face, or any update of a muscle

@@ -9,7 +9,7 @@ lie in the sheet's plane.
 
 import numpy as np
 
-from .waters import LINEAR, sheet_frame
+from .waters import LINEAR, region_start, sheet_frame
 
 
 def _polyline(points, closed=False):
@@ -53,4 +53,5 @@ def muscle_outline(m, arc_steps=16):
         return _polyline([origin + l * fibre + h * across for l, h in
                           ((l0, -half), (l1, -half), (l1, half), (l0, half))], closed=True)
 
-    return {"aoi": rect(0.0, m.length), "region": rect(m.lambda_w * m.length, m.length)}
+    back = m.back_reach * m.length
+    return {"aoi": rect(-back, m.length), "region": rect(region_start(m, m.length, -back), m.length)}

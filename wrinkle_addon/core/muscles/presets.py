@@ -59,11 +59,13 @@ EXPRESSION_ITEMS = (
 # area of influence as a multiple of the attachment-insertion distance, ``depth_factor``
 # the furrow depth k0 as a fraction of the half cycle u).
 ROLE_PARAMS = {
-    "FRONTALIS_INNER": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.08},
-    "FRONTALIS_MAJOR": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.08},
-    "FRONTALIS_OUTER": {"lambda_w": 0.3, "n_wrinkles": 4, "pull": 0.08},
-    # frown lines and bunny lines are deep for their spacing
-    "CORRUGATOR": {"lambda_w": 0.1, "n_wrinkles": 2, "angle": 30.0, "depth_factor": 0.6},
+    # the forehead from the hairline to below the brows in six cycles: four furrows on the forehead
+    "FRONTALIS_INNER": {"lambda_w": 0.0, "n_wrinkles": 6, "pull": 0.18},
+    "FRONTALIS_MAJOR": {"lambda_w": 0.0, "n_wrinkles": 6, "pull": 0.18},
+    "FRONTALIS_OUTER": {"lambda_w": 0.0, "n_wrinkles": 6, "pull": 0.18},
+    # frown lines ("the elevens") and bunny lines are deep for their spacing
+    # a wide fan, so the furrows near the glabella run 10-20 mm up and down
+    "CORRUGATOR": {"lambda_w": 0.15, "n_wrinkles": 3, "angle": 45.0, "angle_c": 20.0, "depth_factor": 1.0},
     "NASALIS": {"lambda_w": 0.3, "n_wrinkles": 3, "angle": 30.0, "depth_factor": 0.4},
     "ZYGOMATICUS_MINOR": {"lambda_w": 0.5, "n_wrinkles": 2},
     # the mouth muscles end at the mouth corner: a short reach and a narrow cone keep
@@ -96,6 +98,20 @@ def estimate_landmarks(bbox_min, bbox_max):
     }
 
 
+CONVERGENCE = 0.61  # the Frontalis' line of convergence, as a fraction of the forehead's height
+SHEET_LENGTH = 1.5  # a sheet's Ls over its attachment-insertion distance: the pull fades below the brows
+
+
+def sheet_reach(landmarks):
+    """How far the Frontalis sheets reach behind their attachment line (up to the hairline),
+    in the landmarks' units; ``build_muscle_set`` divides it by the sheets' length Ls."""
+    lm = {k: np.asarray(v, float)[[0, 2]] for k, v in landmarks.items()}
+    g, bo, hair = lm["glabella"], lm["brow_outer_L"], lm["hairline_center"]
+    bw = abs(bo[0] - g[0])
+    insert_z = g[1] + 0.5 * (bo[1] - g[1]) + 0.12 * bw + 0.08 * (hair[1] - g[1])
+    return (1.0 - CONVERGENCE) * (hair[1] - insert_z)
+
+
 def layout(landmarks):
     """End points in the (x, z) plane for every muscle and side.
 
@@ -116,15 +132,18 @@ def layout(landmarks):
     def brow_z(f):  # a gently arched brow line from the glabella to the outer brow
         return g[1] + (bo[1] - g[1]) * f + 0.12 * bw * np.sin(np.pi * min(f, 1.0))
 
-    # The Frontalis attaches to the galea aponeurotica above the hairline; Waters' pull
-    # compresses the skin most near the attachment, so this puts the furrows on the
-    # forehead rather than at the hairline.  The three sheets of a side share one
-    # attachment line and one insertion height, so eq. 7 puts their furrows in phase.
-    # Their centres are D = bw/3 apart and each is 1.5 D wide with h_c = D/4: the
-    # smoothstep ramps of neighbours (and of the two inner sheets at the midline)
-    # coincide exactly, and their pulls add up to a uniform lift of the brows.
-    attach_z = hair[1] + 0.35 * (hair[1] - g[1])
+    # Raised brows move the lower forehead up and the upper forehead down; the two meet on
+    # a horizontal line at 61 % of the forehead's height above the brows (3D skin
+    # displacement studies of the Frontalis).  The sheets' attachment line is that line of
+    # convergence, and they reach behind it to the hairline (``sheet_reach``), so the skin
+    # converges on it from both sides.  The three sheets of a side share one attachment
+    # line, one insertion height and one length, so eq. 7 puts their furrows in phase and
+    # a furrow runs across the whole forehead.  Their centres are D = bw/3 apart and each
+    # is 1.5 D wide with h_c = D/4: the smoothstep ramps of neighbours (and of the two
+    # inner sheets at the midline) coincide exactly, so their pulls add up to a uniform
+    # lift and their furrows keep one depth across the borders.
     insert_z = brow_z(0.5) + 0.08 * (hair[1] - g[1])  # just above the brow hairs
+    attach_z = insert_z + CONVERGENCE * (hair[1] - insert_z)
 
     def sheet(i):
         c0, c1 = (i - 0.25) / 3.0, (i + 1.25) / 3.0
@@ -136,7 +155,8 @@ def layout(landmarks):
         "FRONTALIS_INNER": sheet(0),
         "FRONTALIS_MAJOR": sheet(1),
         "FRONTALIS_OUTER": sheet(2),
-        "CORRUGATOR": [(x(0.10), g[1] - 0.05 * (g[1] - ey)), (x(0.55), brow_z(0.55) + 0.04 * bw)],
+        # horizontal fibres: the frown lines, across them, run vertically
+        "CORRUGATOR": [(x(0.02), g[1] - 0.05 * (g[1] - ey)), (x(0.45), g[1] - 0.05 * (g[1] - ey))],
         "NASALIS": [(x(0.30), nose[1] + 0.25 * (ey - nose[1])), (x(0.06), ey - 0.05 * (ey - nose[1]))],
         "ZYGOMATICUS_MINOR": [
             (cheek[0] - sign * 0.25 * bw, cheek[1] - 0.1 * (ey - nose[1])),

@@ -66,10 +66,56 @@ class Plan:
     half_cycles: np.ndarray  # (M,) u per muscle
     region_sizes: np.ndarray  # (M,) vertices in each wrinkling region
     problems: list = field(default_factory=list)  # (muscle index, message)
+    smooth_cells: np.ndarray = None  # (R, 4) cells of each row's A(eps) smoothing, or None
+    smooth_weights: np.ndarray = None  # (R, 4) float32 bilinear weights
+    smooth_norm: np.ndarray = None  # (cells,) 1 / total weight per cell (0 where empty)
+    smooth_size: int = 0
 
 
-def build_plan(rest, edges, tris, muscles):
-    """Precompute everything static.  ``rest`` (N, 3), ``edges`` (E, 2), ``tris`` (T, 3)."""
+def _smoothing(fields, keep):
+    """The grid on which each muscle's amplitude A(eps) is smoothed: cells of one half cycle
+    u in the muscle's plane (``MuscleField.coords``); each kept row splats into and reads
+    back from its 4 surrounding cells with bilinear weights.  Returns (cells (R, 4),
+    weights (R, 4) float32, number of cells, per-cell weight totals)."""
+    cells, weights, start = [], [], 0
+    for f in fields:
+        c = np.asarray(f.coords, np.float64).reshape(-1, 2)
+        if len(c) == 0:
+            continue
+        g = (c - c.min(axis=0)) / max(f.half_cycle, 1e-12)
+        i = np.floor(g).astype(np.int64)
+        t = g - i
+        nz = int(i[:, 1].max()) + 2
+        corner = [(0, 0), (1, 0), (0, 1), (1, 1)]
+        cells.append(np.stack([start + (i[:, 0] + a) * nz + i[:, 1] + b for a, b in corner], axis=1))
+        weights.append(np.stack([np.where(a, t[:, 0], 1 - t[:, 0]) * np.where(b, t[:, 1], 1 - t[:, 1])
+                                 for a, b in corner], axis=1))
+        start += (int(i[:, 0].max()) + 2) * nz
+    if not cells:
+        return np.zeros((0, 4), np.int64), np.zeros((0, 4), _F), 0, np.zeros(0)
+    cells = np.concatenate(cells)[keep]
+    weights = np.concatenate(weights)[keep]
+    total = np.bincount(cells.ravel(), weights=weights.ravel(), minlength=start)
+    return cells, weights.astype(_F), start, total
+
+
+def smooth_rows(plan, values):
+    """``values`` (R,) per row, smoothed over each muscle's half-cycle grid (see
+    :func:`_smoothing`): a bilinear splat, normalised, and a bilinear read back."""
+    if plan.smooth_cells is None or len(values) == 0:
+        return values
+    num = np.bincount(plan.smooth_cells.ravel(), weights=(plan.smooth_weights * values[:, None]).ravel(),
+                      minlength=plan.smooth_size)
+    grid = (num * plan.smooth_norm).astype(_F)
+    return np.einsum("ij,ij->i", plan.smooth_weights, grid[plan.smooth_cells])
+
+
+def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
+    """Precompute everything static.  ``rest`` (N, 3), ``edges`` (E, 2), ``tris`` (T, 3).
+
+    ``keep_out`` (N,) in [0, 1], or None: a weight on every muscle's pull and wrinkles
+    (``core.zones.keep_out``: 0 on the eyelids and the lips).  ``smooth``: smooth the
+    amplitude A(eps) over half a wrinkle cycle (docs/model.md, "Coherent furrows")."""
     rest = np.asarray(rest, dtype=np.float64).reshape(-1, 3)
     n = len(rest)
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
@@ -86,6 +132,9 @@ def build_plan(rest, edges, tris, muscles):
     pull_vert = np.concatenate([f.aoi for f in fields] + [np.zeros(0, np.int32)])
     pull_muscle = np.repeat(np.arange(n_m), [len(f.aoi) for f in fields])
     pull_weight = np.concatenate([f.pull_weight for f in fields] + [np.zeros(0)])
+    if keep_out is not None:
+        keep_out = np.clip(np.nan_to_num(np.asarray(keep_out, np.float64).ravel()), 0.0, 1.0)
+        pull_weight = pull_weight * keep_out[pull_vert]
     linear = np.array([m.sanitized().kind == LINEAR for m in muscles], bool)[pull_muscle]
     pull_target = np.array([f.target for f in fields]).reshape(-1, 3)[pull_muscle] * linear[:, None]
     pull_dir = np.array([f.pull_dir for f in fields]).reshape(-1, 3)[pull_muscle] * ~linear[:, None]
@@ -95,8 +144,11 @@ def build_plan(rest, edges, tris, muscles):
     row_vert = np.concatenate([f.region for f in fields] + [np.zeros(0, np.int32)]).astype(np.int64)
     row_muscle = np.repeat(np.arange(n_m), [len(f.region) for f in fields])
     row_amp = np.concatenate([f.amplitude for f in fields] + [np.zeros(0)])
+    if keep_out is not None:
+        row_amp = row_amp * keep_out[row_vert]
     row_cdir = np.concatenate([f.contraction_dir for f in fields] + [np.zeros((0, 3))])
     keep = row_amp != 0.0
+    cells, cell_w, n_cells, cell_total = _smoothing(fields, keep)
     row_vert, row_muscle, row_amp, row_cdir = row_vert[keep], row_muscle[keep], row_amp[keep], row_cdir[keep]
 
     offsets, inc_edge = mesh.vertex_incidence(edges, n)
@@ -155,6 +207,10 @@ def build_plan(rest, edges, tris, muscles):
         half_cycles=np.array([f.half_cycle for f in fields]),
         region_sizes=np.array([len(f.region) for f in fields]),
         problems=problems,
+        smooth_cells=cells if smooth else None,
+        smooth_weights=cell_w,
+        smooth_norm=np.where(cell_total > 0, 1.0 / np.where(cell_total > 0, cell_total, 1.0), 0.0),
+        smooth_size=n_cells,
     )
 
 
@@ -202,7 +258,7 @@ def _pull_and_heights(plan, s, contraction, strength):
     summed height W at the wrinkled local vertices ``plan.height_sum.keys``."""
     offset = waters_pull(plan, s, contraction)
     pulled = s if offset is None else s + offset
-    w = plan.row_amp * zhang.anisotropic(compression(plan, pulled))
+    w = plan.row_amp * smooth_rows(plan, zhang.anisotropic(compression(plan, pulled)))
     return offset, pulled, plan.height_sum.sum(w) * _F(np.nan_to_num(strength))
 
 
@@ -257,20 +313,3 @@ def formed_heights(plan, muscle, strength=1.0):
         out[plan.verts] = local.astype(_F) * _F(np.nan_to_num(strength))
     return out
 
-
-def refine_edges(rest, edges, muscles, factor=4.0):
-    """Edges to split so every half cycle ``u`` spans at least ``factor`` edges.
-
-    Returns the indices of edges touching a wrinkling region whose rest length
-    exceeds ``u / factor`` for that region's muscle (Zhang §3 refines where the
-    wrinkles need resolution).
-    """
-    rest = np.asarray(rest, dtype=np.float64).reshape(-1, 3)
-    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
-    limit = np.full(len(rest), np.inf)
-    for m in muscles:
-        f = muscle_field(rest, m)
-        if len(f.region) and f.half_cycle > 0:
-            np.minimum.at(limit, f.region, f.half_cycle / factor)
-    lim_e = np.minimum(limit[edges[:, 0]], limit[edges[:, 1]])
-    return np.flatnonzero(mesh.edge_lengths(rest, edges) > lim_e)

@@ -70,6 +70,7 @@ class Muscle:
     depth: float = 0.05  # sheet only: half thickness of the slab around the sheet plane
     wrinkles_only: bool = False
     fade_ends: bool = True
+    back_reach: float = 0.0  # sheet only: reach behind the attachment line, as a fraction of Ls
 
     def sanitized(self):
         """A copy with NaN/inf replaced and every parameter clamped to its valid range."""
@@ -99,6 +100,7 @@ class Muscle:
             depth=f(self.depth, 0.0, 1e9, 0.0),
             wrinkles_only=bool(self.wrinkles_only),
             fade_ends=bool(self.fade_ends),
+            back_reach=f(self.back_reach, 0.0, 10.0, 0.0),
         )
 
     def problem(self):
@@ -136,6 +138,10 @@ class MuscleField:
     amplitude: np.ndarray  # H(w) * At * fade at region vertices (eq. 4 without A(eps))
     contraction_dir: np.ndarray  # (len(region), 3) unit direction of contraction (eq. 10)
     half_cycle: float  # u (eq. 6)
+    coords: np.ndarray = None  # (len(region), 2) the region's points in the muscle's plane:
+    # (along the fibre, across it), local units; where A(eps) is smoothed (system.build_plan)
+    envelope: np.ndarray = None  # (len(region),) At * fade (* slab) in [0, 1]: the amplitude's
+    # envelope without the wrinkle profile H(w) (refinement)
 
 
 def sheet_frame(m):
@@ -159,13 +165,35 @@ def sheet_frame(m):
     return a_c, fibre, across, np.cross(fibre, across), fl
 
 
-def radial_falloff(dist, r_s, r_f):
-    """Waters' radial fall-off ``r`` (see module doc).  ``r_s`` is clamped to ``r_f``."""
+def smoothstep(t):
+    """``3t² - 2t³`` on [0, 1], clamped: 0 and 1 with zero slope at both ends (C¹)."""
+    t = np.clip(t, 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def radial_falloff(dist, r_s, r_f, squared=False):
+    """Waters' radial fall-off ``r`` (see module doc).  ``r_s`` is clamped to ``r_f``.
+
+    Inside ``r_s`` it is Waters' ``sin(pi/2 D/Rs)``, or with ``squared`` its square, which
+    starts with zero slope: the skin at the attachment (a cone's apex, a one-sided sheet's
+    attachment line, both borders of the area of influence) then has no strain step.
+    Beyond ``r_s`` it is ``1 - smoothstep`` down to 0 at ``r_f``, which reaches 0 with zero
+    slope (Waters' cosine ends with a kink, and the skin shows a crease along the border of
+    the area of influence)."""
     r_s = max(min(r_s, r_f), _EPS)
     inner = np.sin(0.5 * np.pi * np.clip(dist / r_s, 0.0, 1.0))
+    if squared:
+        inner = inner * inner
     span = max(r_f - r_s, _EPS)
-    outer = np.cos(0.5 * np.pi * np.clip((dist - r_s) / span, 0.0, 1.0))
+    outer = 1.0 - smoothstep((dist - r_s) / span)
     return np.where(dist <= r_s, inner, np.where(dist <= r_f, outer, 0.0))
+
+
+def angular_falloff(gamma):
+    """A linear muscle's pull across its cone, ``cos²(pi/2 gamma)`` for ``gamma = phi/Phi``:
+    1 with zero slope on the central fibre, 0 with zero slope on the cone's side (C¹)."""
+    c = np.cos(0.5 * np.pi * np.clip(gamma, 0.0, 1.0))
+    return c * c
 
 
 def across_falloff(h, h_c, half_width):
@@ -177,13 +205,20 @@ def across_falloff(h, h_c, half_width):
     whose ramps overlap exactly pull the skin between them as much as their cores.
     """
     span = max(half_width - h_c, _EPS)
-    s = np.clip((np.asarray(h) - h_c) / span, 0.0, 1.0)
-    return 1.0 - s * s * (3.0 - 2.0 * s)
+    return 1.0 - smoothstep((np.asarray(h) - h_c) / span)
+
+
+def depth_falloff(depth, half_thickness):
+    """A sheet's weight by distance from its plane: 1 up to half of ``depth``, then
+    ``1 - smoothstep`` to 0 at ``depth`` (a hard cut shears the skin along the cut)."""
+    half = 0.5 * half_thickness
+    return 1.0 - smoothstep((np.asarray(depth) - half) / max(half, _EPS))
 
 
 def _empty_field():
     z = np.zeros(0, dtype=np.int32)
-    return MuscleField(z, np.zeros(0), np.zeros(3), np.zeros(3), z, np.zeros(0), np.zeros((0, 3)), 0.0)
+    return MuscleField(z, np.zeros(0), np.zeros(3), np.zeros(3), z, np.zeros(0), np.zeros((0, 3)), 0.0,
+                       np.zeros((0, 2)), np.zeros(0))
 
 
 def muscle_field(rest, muscle):
@@ -197,16 +232,25 @@ def muscle_field(rest, muscle):
     return _sheet_field(rest, m)
 
 
-def _wrinkle_amplitude(l, across, across_c, across_max, m, length):
-    """``H(w) At`` (eqs. 5-7, 12/15) plus the optional end fade."""
-    u = zhang.half_cycle(length, m.lambda_w, m.n_wrinkles)
+def region_start(m, length, lo=0.0):
+    """Where the wrinkling region starts along ``l`` (eqs. 3, 14) for a muscle whose extent
+    along ``l`` is ``[lo, length]``: ``lambda_w`` of the way."""
+    return lo + m.lambda_w * (length - lo)
+
+
+def _wrinkle_amplitude(l, across, across_c, across_max, m, length, lo=0.0):
+    """``H(w) At`` (eqs. 5-7, with a C¹ attenuation in place of eqs. 12/15) plus the optional
+    end fade, for a muscle whose extent along ``l`` is ``[lo, length]`` (``lo`` is 0 but for a
+    sheet that reaches behind its attachment line)."""
+    span = length - lo  # the muscle's whole extent along l (R, Ls, or (1 + b) Ls)
+    u = zhang.half_cycle(span, m.lambda_w, m.n_wrinkles)
     if m.n_wrinkles < 0.5:  # n_w = 0: no wrinkles, the muscle still pulls
-        return np.zeros_like(l), float(u)
-    w = zhang.cycle_position(l, m.lambda_w, length, u)
-    amp = zhang.shape_function(w, u, m.k0, m.alpha) * zhang.attenuation(across, across_c, across_max)
+        return np.zeros_like(l), float(u), np.zeros_like(l)
+    w = zhang.cycle_position(np.asarray(l) - lo, m.lambda_w, span, u)
+    env = zhang.attenuation(across, across_c, across_max)
     if m.fade_ends:
-        amp = amp * zhang.edge_fade(l, m.lambda_w * length, length, u)
-    return amp, float(u)
+        env = env * zhang.edge_fade(l, region_start(m, length, lo), length, u)
+    return zhang.shape_function(w, u, m.k0, m.alpha) * env, float(u), env
 
 
 def _linear_field(rest, m):
@@ -223,37 +267,69 @@ def _linear_field(rest, m):
     gamma = phi / m.spread
 
     aoi = np.flatnonzero((dist <= m.length) & (gamma <= 1.0) & (dist > _EPS))
-    ang = np.cos(0.5 * np.pi * gamma[aoi])
-    pull_weight = r_s * ang * radial_falloff(dist[aoi], r_s, m.length)
+    pull_weight = r_s * angular_falloff(gamma[aoi]) * radial_falloff(dist[aoi], r_s, m.length, squared=True)
 
     region = np.flatnonzero((lam >= m.lambda_w) & (lam <= 1.0) & (gamma <= 1.0))  # eq. 3
-    amp, u = _wrinkle_amplitude(l[region], phi[region], m.spread_c, m.spread, m, m.length)
+    amp, u, env = _wrinkle_amplitude(l[region], phi[region], m.spread_c, m.spread, m, m.length)
     cdir = -rel[region] / np.maximum(dist[region], _EPS)[:, None]  # x_i -> m_A
     return MuscleField(
         aoi.astype(np.int32), pull_weight, np.zeros(3), m_a.copy(),
-        region.astype(np.int32), amp, cdir, u,
+        region.astype(np.int32), amp, cdir, u, _plane_coords(rel[region], fibre), env,
     )
 
 
+def _plane_coords(rel, fibre):
+    """(along ``fibre``, across it) of the points ``rel`` (K, 3): the across axis lies in the
+    points' best-fit plane (their smallest principal axis is its normal)."""
+    if len(rel) < 3:
+        return np.stack([rel @ fibre, np.zeros(len(rel))], axis=1)
+    centred = rel - rel.mean(axis=0)
+    _w, vecs = np.linalg.eigh(centred.T @ centred)
+    side = np.cross(fibre, vecs[:, 0])
+    n = np.linalg.norm(side)
+    if n < 1e-6:  # the fibre is the plane's normal: any perpendicular will do
+        side = np.cross(fibre, vecs[:, 1])
+        n = np.linalg.norm(side)
+    return np.stack([rel @ fibre, rel @ (side / n)], axis=1)
+
+
 def _sheet_field(rest, m):
+    """A sheet, and with ``back_reach`` b > 0 the skin behind its attachment line too: that
+    skin (up to B = b Ls behind the line) is pulled toward the line with Waters' profile
+    over (B/2, B), so the skin converges on the attachment line from both sides, as the
+    forehead does on the Frontalis' line of convergence (docs/model.md).  Each side's
+    weight is its own Rs times ``sin(pi/2 D/Rs)``, so both start with the slope pi/2 at
+    the line and the field is C¹ there (a one-sided sheet uses the squared profile
+    instead, see :func:`radial_falloff`).  The wrinkling region then runs over the whole
+    extent ``[-B, Ls]``, with Zhang's lambda measured over it."""
     origin, fibre, across, normal, r_s = sheet_frame(m)
     rel = rest - origin
     l = rel @ fibre  # distance from the attachment line, along the fibres
     h = np.abs(rel @ across)  # distance from the central fibre
     depth = np.abs(rel @ normal)
-    lam = l / m.length  # eq. 13
-    gamma = 2.0 * h / m.spread
-    inside = (gamma <= 1.0) & (depth <= m.depth)
+    back = m.back_reach * m.length
+    inside = (2.0 * h <= m.spread) & (depth <= m.depth)
+    slab = depth_falloff(depth, m.depth)
 
     half_w = 0.5 * m.spread
-    aoi = np.flatnonzero(inside & (l > 0.0) & (lam <= 1.0))
-    ang = across_falloff(h[aoi], min(m.spread_c, half_w), half_w)
-    pull_weight = r_s * ang * radial_falloff(l[aoi], r_s, m.length)
+    h_c = min(m.spread_c, half_w)
+    aoi = np.flatnonzero(inside & (l != 0.0) & (l <= m.length) & (l >= -back))
+    la = l[aoi]
+    front = la > 0.0
+    if back > 0.0:
+        r = np.where(front, r_s * radial_falloff(la, r_s, m.length),
+                     -0.5 * back * radial_falloff(-la, 0.5 * back, back))
+    else:
+        r = r_s * radial_falloff(la, r_s, m.length, squared=True)
+    pull_weight = across_falloff(h[aoi], h_c, half_w) * slab[aoi] * r
 
-    region = np.flatnonzero(inside & (lam >= m.lambda_w) & (lam <= 1.0))  # eq. 14
-    amp, u = _wrinkle_amplitude(l[region], h[region], min(m.spread_c, half_w), half_w, m, m.length)
+    start = region_start(m, m.length, -back)
+    region = np.flatnonzero(inside & (l >= start) & (l <= m.length))  # eq. 14
+    amp, u, env = _wrinkle_amplitude(l[region], h[region], h_c, half_w, m, m.length, -back)
+    amp, env = amp * slab[region], env * slab[region]
     cdir = np.broadcast_to(-fibre, (len(region), 3)).copy()
+    coords = np.stack([l[region], rel[region] @ across], axis=1)
     return MuscleField(
         aoi.astype(np.int32), pull_weight, -fibre, np.zeros(3),
-        region.astype(np.int32), amp, cdir, u,
+        region.astype(np.int32), amp, cdir, u, coords, env,
     )

@@ -80,9 +80,24 @@ def anisotropic(eps):
     return np.where(np.asarray(eps) > 0.0, np.cos(0.5 * np.pi * (1.0 - e)), 0.0)
 
 
+def attenuation_paper(x, x_c, x_max):
+    """Eqs. 12 and 15 as printed: ``At = 1`` up to ``x_c``, then ``-1/2 (1 + s^2) s + 1``
+    with ``s = (x - x_c) / (x_max - x_c)``, reaching exactly 0 at ``x_max`` and 0 beyond.
+    It reaches 0 with slope -2 (per unit s): the furrows end in a crease at the region's
+    side, and two regions side by side sum to a bump (1.375 where both are at s = 1/2).
+    Kept for reference; :func:`attenuation` is what the model uses."""
+    x = np.asarray(x, dtype=np.float64)
+    span = np.maximum(x_max - x_c, _EPS)
+    s = np.clip((x - x_c) / span, 0.0, 1.0)
+    return np.where(x > x_max, 0.0, 1.0 - 0.5 * (1.0 + s * s) * s)
+
+
 def attenuation(x, x_c, x_max):
-    """Eqs. 12 and 15: ``At = 1`` up to ``x_c``, then ``-1/2 (1 + s^2) s + 1`` with
-    ``s = (x - x_c) / (x_max - x_c)``, reaching exactly 0 at ``x_max`` and 0 beyond.
+    """Eqs. 12 and 15's attenuation, C¹: ``At = 1`` up to ``x_c``, then ``1 - smoothstep(s)``
+    with ``s = (x - x_c) / (x_max - x_c)``, reaching 0 at ``x_max`` with zero slope, and 0
+    beyond.  Departure from the paper's cubic (:func:`attenuation_paper`), which ends with
+    a slope: this one ends smoothly, and it is a partition of unity, so the furrows of two
+    sheets whose ramps overlap (the Frontalis preset) keep one depth across the border.
 
     Eq. 12 uses the angle phi with (phi_c, Phi); eq. 15 uses the distance h from
     the central fibre with (h_c, Ws/2).
@@ -90,7 +105,7 @@ def attenuation(x, x_c, x_max):
     x = np.asarray(x, dtype=np.float64)
     span = np.maximum(x_max - x_c, _EPS)
     s = np.clip((x - x_c) / span, 0.0, 1.0)
-    return np.where(x > x_max, 0.0, 1.0 - 0.5 * (1.0 + s * s) * s)
+    return np.where(x > x_max, 0.0, 1.0 - s * s * (3.0 - 2.0 * s))
 
 
 def edge_fade(l, start, end, u):
@@ -100,7 +115,8 @@ def edge_fade(l, start, end, u):
     lambda = 1) eq. 7 puts w = 0, where H is a furrow of depth
     ``k0 2^alpha - d``.  Cutting it off there leaves a cliff in the skin, so the
     amplitude is ramped with the same profile as eq. 12 over one half cycle ``u``
-    at each end.  Switch it off per muscle for the paper's exact model.
+    at each end (C¹: zero slope where it reaches 0 and 1).  Switch it off per muscle for the
+    paper's model.
     """
     u = np.maximum(u, _EPS)
     a = np.clip((np.asarray(l) - start) / u, 0.0, 1.0)

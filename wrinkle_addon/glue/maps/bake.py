@@ -23,6 +23,7 @@ from ...core.muscles import system
 from ...core.muscles.waters import muscle_field
 from .. import faces, meshio, stage
 from ..errors import WrinkleError
+from ..muscles import landmarks as muscle_landmarks
 from ..muscles import objects as muscle_objects
 
 MODES = (
@@ -177,7 +178,8 @@ def _layers(face, mode, muscles=None, surface=None):
     core = [muscle_objects.to_core(m, face) for m in muscles]
     strength = float(face.ewrinkles_face.strength)
     rest = surface.rest
-    plan = system.build_plan(rest, surface.edges, surface.tris, core)
+    plan = system.build_plan(rest, surface.edges, surface.tris, core,
+                             keep_out=muscle_landmarks.keep_out(face, rest))
     if mode == "POSE":
         skin = evaluated_skin(face, len(rest))
         contraction = np.array([m.ewrinkles_muscle.contraction for m in muscles], np.float64)
@@ -327,6 +329,7 @@ def muscle_zones(face, surface=None, muscles=None):
     n = len(rest)
     zones = np.zeros((n, wrinkle_maps.N_ZONES), np.float32)
     raw = np.zeros((n, wrinkle_maps.N_ZONES), np.float32)
+    keep = muscle_landmarks.keep_out(face, rest)  # no zone reaches an eyelid or a lip
     used = 0
     for ob in muscles:
         s = ob.ewrinkles_muscle
@@ -339,6 +342,8 @@ def muscle_zones(face, surface=None, muscles=None):
             continue
         amp = np.zeros(n)
         amp[f.region] = np.abs(f.amplitude)
+        if keep is not None:
+            amp *= keep
         in_region = np.zeros(n, bool)
         in_region[f.region] = True
         hops = int(np.ceil(f.half_cycle / max(_median_edge(rest, surface.edges, in_region), 1e-12)))

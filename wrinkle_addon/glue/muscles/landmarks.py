@@ -8,7 +8,9 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from ...core.muscles import presets
+from ...core import zones
+from ...core.muscles import landmark_finder, presets
+from .. import meshio
 from . import objects as muscle_objects
 
 LANDMARK_PREFIX = "WL "
@@ -19,10 +21,33 @@ def surface_scale(face):
     return max(max(dims), 1e-6)
 
 
+def _shape_keys(me, n):
+    """``{name: (n, 3) float32}`` of the mesh's shape keys other than the reference key."""
+    keys = me.shape_keys
+    if keys is None:
+        return {}
+    out = {}
+    for kb in keys.key_blocks:  # a few dozen keys
+        if kb == keys.reference_key:
+            continue
+        co = np.empty(n * 3, np.float32)
+        kb.points.foreach_get("co", co)
+        out[kb.name] = co.reshape(n, 3)
+    return out
+
+
+def find_landmarks(face):
+    """``(landmarks, method, message)`` of ``landmark_finder.find_landmarks`` on the face's
+    rest mesh (its own positions, polygons and shape keys; face-local)."""
+    me = face.data
+    rest = meshio.read_vectors(me, "position")
+    polys = meshio.read_polygons(me)
+    return landmark_finder.find_landmarks(rest, polys, _shape_keys(me, len(rest)))
+
+
 def guess_landmarks(face):
-    """Face-local landmark guesses from the face's bounding box."""
-    bb = np.array([tuple(v) for v in face.bound_box])
-    return presets.estimate_landmarks(bb.min(axis=0), bb.max(axis=0))
+    """Face-local landmarks found on the face (``find_landmarks``), without the method."""
+    return find_landmarks(face)[0]
 
 
 def project_front(face, dg, x, z):
@@ -45,8 +70,23 @@ def landmark_positions(face):
     return out
 
 
+def keep_out(face, rest):
+    """Per-vertex weight (N,) that keeps wrinkles and pull off the eyelids and the lips
+    (``core.zones.keep_out``), from the face's landmark empties; None when they are not all
+    placed.  The frame stage and the wrinkle-map bakes use the same one."""
+    points = landmark_positions(face)
+    return None if points is None else zones.keep_out(rest, points)
+
+
+def landmark_objects(face):
+    """The landmark empties of ``face`` that exist."""
+    found = (bpy.data.objects.get(f"{LANDMARK_PREFIX}{face.name} {key}") for key, _l, _d in presets.LANDMARKS)
+    return [ob for ob in found if ob is not None]
+
+
 def build_muscle_set(context, face, landmarks):
-    """Create the ten mirrored muscles from face-local landmarks.  Returns the new objects.
+    """Create the ten mirrored muscles from face-local landmarks, and put the landmark empties
+    there (the no-wrinkle zones are built from them).  Returns the new muscle objects.
 
     Every end point is projected onto the skin first: creating objects changes the
     depsgraph, and an evaluated object must not be used after that.
@@ -55,25 +95,36 @@ def build_muscle_set(context, face, landmarks):
     mw = face.matrix_world
     placed = []
     for role, side, kind, pts in presets.layout(landmarks):
-        world = []
+        local = []
         for x, z in pts:
             loc = project_front(face, dg, x, z)
             if loc is None:
                 loc = Vector((x, float(landmarks["glabella"][1]), z))
-            world.append(mw @ loc)
-        placed.append((role, side, kind, world))
-    # The sheets of one side share one length Ls, so eq. 7 puts their furrows in phase
-    # where they overlap instead of beating against each other.
+            local.append(loc)
+        if kind == "SHEET":
+            # one depth for the sheet's four corners: its fibre is then exactly the layout's
+            # (vertical for the Frontalis), so every sheet measures l the same way and their
+            # furrows join at the borders instead of stepping by the forehead's curvature
+            depth = sum(p.y for p in local) / len(local)
+            local = [Vector((p.x, depth, p.z)) for p in local]
+        placed.append((role, side, kind, [mw @ p for p in local]))
+    # The sheets share one length Ls and one reach behind their attachment line, so eq. 7
+    # puts their furrows in phase and a furrow crosses the forehead (presets.layout).
     spans = [((w[2] + w[3]) / 2 - (w[0] + w[1]) / 2).length for _r, _s, k, w in placed if k == "SHEET"]
-    sheet_length = 1.3 * max(spans) if spans else None
+    sheet_length = presets.SHEET_LENGTH * max(spans) if spans else None
+    back_reach = (presets.sheet_reach(landmarks) * muscle_objects.face_scale(face) / sheet_length
+                  if sheet_length else 0.0)
+    set_landmarks(context, face, {k: landmarks[k] for k, _l, _d in presets.LANDMARKS})
     names = {r: n for r, n, _k in presets.MUSCLES}
     made = []
     for role, side, kind, world in placed:
         params = dict(presets.ROLE_PARAMS.get(role, {}))
         if kind == "SHEET":
             params["length"] = sheet_length
-        if "angle" in params:
-            params["angle"] = math.radians(params["angle"])
+            params["back_reach"] = max(back_reach, 0.0)
+        for key in ("angle", "angle_c"):
+            if key in params:
+                params[key] = math.radians(params[key])
         ob = muscle_objects.create(context, face, kind, world, name=f"{names[role]}.{side}", **params)
         ob.ewrinkles_muscle.role = role
         ob.ewrinkles_muscle.side = side
@@ -81,13 +132,10 @@ def build_muscle_set(context, face, landmarks):
     return made
 
 
-def place_landmarks(context, face):
-    """Place (or move back) the landmark empties of ``face`` at guesses from its size,
-    projected onto the front of its surface."""
-    guess = guess_landmarks(face)
-    dg = context.evaluated_depsgraph_get()
-    located = {key: project_front(face, dg, guess[key][0], guess[key][2]) or Vector(guess[key])
-               for key, _label, _desc in presets.LANDMARKS}  # before any data changes
+def set_landmarks(context, face, located):
+    """Create or move the landmark empties of ``face`` to the face-local points ``located``
+    (a dict by landmark name).  They show the artist what the muscle set and the no-wrinkle
+    zones (``core.zones``: eyelids and lips) were built from, and moving one rebuilds both."""
     coll = muscle_objects.muscle_collection(context.scene)
     for key, _label, desc in presets.LANDMARKS:
         name = f"{LANDMARK_PREFIX}{face.name} {key}"
@@ -99,7 +147,23 @@ def place_landmarks(context, face):
         ob.empty_display_size = 0.01 * surface_scale(face)
         ob.parent = face
         ob.matrix_parent_inverse.identity()
-        ob.location = located[key]
+        ob.location = Vector(located[key])
         ob["wrinkle_landmark"] = key
         ob["description"] = desc
         ob.show_name = True
+
+
+def place_landmarks(context, face):
+    """Place (or move back) the landmark empties of ``face`` where the finder puts them.
+
+    Returns ``(method, message)``: the rule that found them (``landmark_finder.RULES``) or
+    ``landmark_finder.FALLBACK``, and the message for the artist when the bounding box was
+    used.  The found points are on the surface already; only bounding-box guesses are
+    projected onto the front of the surface."""
+    found, method, message = find_landmarks(face)
+    located = {key: Vector(found[key]) for key, _label, _desc in presets.LANDMARKS}
+    if method == landmark_finder.FALLBACK:
+        dg = context.evaluated_depsgraph_get()
+        located = {key: project_front(face, dg, v[0], v[2]) or v for key, v in located.items()}
+    set_landmarks(context, face, located)  # after the ray casts: data changes
+    return method, message

@@ -54,6 +54,7 @@ def to_core(muscle_ob, face):
         kind=kind, attachment=attachment, insertion=insertion, length=length, spread=spread,
         spread_c=spread_c, lambda_w=s.lambda_w, n_wrinkles=s.n_wrinkles, k0=s.k0 / scale,
         alpha=s.alpha, pull=s.pull, depth=s.depth / scale, wrinkles_only=s.wrinkles_only,
+        back_reach=s.back_reach,
         fade_ends=s.fade_ends,
     )
 
@@ -75,7 +76,7 @@ def signature(muscle_ob):
     me.attributes["position"].data.foreach_get("vector", co)
     return (
         muscle_ob.name, s.kind, matrix_key(muscle_ob), co.tobytes(),
-        s.radius, s.angle, s.angle_c, s.length, s.width, s.width_c, s.depth, s.lambda_w,
+        s.radius, s.angle, s.angle_c, s.length, s.width, s.width_c, s.depth, s.back_reach, s.lambda_w,
         s.n_wrinkles, s.k0, s.alpha, s.pull, s.wrinkles_only, s.fade_ends,
     )
 
@@ -145,7 +146,7 @@ def _size_defaults(s, kind, pts, reach, depth_factor, given=()):
     for key, value in sizes.items():
         if key not in given:
             setattr(s, key, value)
-    extent = s.radius if kind == "LINEAR" else s.length
+    extent = s.radius if kind == "LINEAR" else s.length * (1.0 + s.back_reach)
     u = (1.0 - s.lambda_w) * extent / (2.0 * max(s.n_wrinkles, 1))
     if "k0" not in given:
         s.k0 = depth_factor * u

@@ -1,12 +1,22 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Adaptive refinement of the wrinkling regions (Zhang 2005 §3, Fig. 11).
 
-Zhang refines where the wrinkles need resolution.  Here the criterion is the
-one the wrinkle model sets: every half cycle ``u`` (eq. 6) must span at least
-``factor`` edge lengths.  The edges that violate it are chosen in NumPy
-(``core.muscles.system.refine_edges``); bmesh splits the faces around them, which
-interpolates UVs, shape keys, vertex groups and every other attribute, and
-keeps material indices.
+Zhang refines where the wrinkles need resolution.  Here the criterion is the one the
+wrinkle model sets: every half cycle ``u`` (eq. 6) must span at least ``factor`` edge
+lengths wherever a wrinkle has amplitude.  ``core.muscles.refinement`` chooses the edges
+and computes where the new points go; this module does each pass in Blender:
+
+1. read the mesh and every shape key, and the vertex normals of each;
+2. bisect the chosen edges with bmesh (one cut each; a quad with all four edges split gets a
+   2×2 grid, two adjacent ones a straight cut, one a pentagon), which interpolates UVs,
+   shape keys, vertex groups and every other attribute, and keeps material indices; a
+   triangle with a single split edge is then split from the new point to the opposite
+   corner;
+3. move the new points off the flat facets onto the smooth surface through the old
+   vertices (Hermite midpoints, Coons centres), the mesh from its own positions and
+   normals and each shape key from its own.
+
+Passes repeat until the rule holds; each pass halves the edges that still break it.
 """
 
 from dataclasses import dataclass
@@ -14,11 +24,12 @@ from dataclasses import dataclass
 import bmesh
 import numpy as np
 
-from ...core.muscles import system
+from ...core.muscles import refinement
 from .. import meshio
+from . import landmarks
 from . import objects as muscle_objects
 
-MAX_PASSES = 6
+MAX_PASSES = refinement.MAX_PASSES
 
 
 @dataclass
@@ -27,35 +38,88 @@ class Result:
     message: str = ""
 
 
+def _key_blocks(me):
+    keys = me.shape_keys
+    return list(keys.key_blocks) if keys is not None else []
+
+
+def _read_shapes(me):
+    """(K, N, 3) float64: the mesh positions, then every shape key's points."""
+    n = len(me.vertices)
+    out = [meshio.read_vectors(me, "position").astype(np.float64)]
+    buf = np.empty(n * 3, np.float32)
+    for kb in _key_blocks(me):
+        kb.points.foreach_get("co", buf)
+        out.append(buf.reshape(n, 3).astype(np.float64))
+    return np.stack(out)
+
+
+def _write_shapes(me, shapes):
+    meshio.write_vectors(me, "position", shapes[0])
+    for kb, co in zip(_key_blocks(me), shapes[1:]):
+        kb.points.foreach_set("co", np.ascontiguousarray(co, dtype=np.float32).ravel())
+
+
+def _close_single_splits(bm, n_old):
+    """Split every triangle that kept one new point on a side (bmesh leaves it a 4-gon)
+    from that point to the opposite corner."""
+    bm.verts.index_update()
+    bm.verts.ensure_lookup_table()
+    todo = {}
+    for v in bm.verts[n_old:]:
+        for f in v.link_faces:
+            if len(f.verts) == 4 and sum(w.index >= n_old for w in f.verts) == 1:
+                todo[f] = v
+    for f, v in todo.items():
+        loop = next(lp for lp in f.loops if lp.vert is v)
+        bmesh.utils.face_split(f, v, loop.link_loop_next.link_loop_next.vert)
+
+
+def _pass(me, split_pairs, split_index):
+    """One bisection pass over the edges ``split_index``; the new points placed smoothly."""
+    n_old = len(me.vertices)
+    corner, starts, sizes = meshio.read_polygons(me)
+    shapes = _read_shapes(me)
+    normals = refinement.vertex_normals(shapes, corner, starts, sizes)
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(me)
+        bm.edges.ensure_lookup_table()
+        chosen = [bm.edges[int(i)] for i in split_index]
+        bmesh.ops.subdivide_edges(bm, edges=chosen, cuts=1, use_grid_fill=True,
+                                  quad_corner_type="STRAIGHT_CUT")
+        _close_single_splits(bm, n_old)
+        bm.to_mesh(me)
+    finally:
+        bm.free()
+    offsets = refinement.smooth_offsets(shapes, normals, n_old, meshio.read_edges(me), split_pairs)
+    new = _read_shapes(me)
+    new[:, n_old:] += offsets
+    _write_shapes(me, new)
+    me.update()
+
+
 def refine(face, muscles, factor=4.0, max_vertices=1_000_000, progress=None):
+    """Refine ``face`` until every half cycle of ``muscles`` spans ``factor`` edges.
+
+    Returns a :class:`Result` whose message is set only when the rule is still broken
+    (the vertex limit or the pass limit stopped it)."""
     me = face.data
-    for i in range(MAX_PASSES):
+    core_muscles = [muscle_objects.to_core(m, face) for m in muscles]
+    for i in range(MAX_PASSES + 1):
+        rest = meshio.read_vectors(me, "position").astype(np.float64)
+        edges = meshio.read_edges(me)
+        need = refinement.refine_edges(rest, edges, core_muscles, factor, landmarks.keep_out(face, rest))
+        if len(need) == 0:
+            return Result(i)
+        if i == MAX_PASSES:
+            break
         if progress:
             progress(i)
-        rest = meshio.read_vectors(me, "position")
-        edges = meshio.read_edges(me)
-        core_muscles = [muscle_objects.to_core(m, face) for m in muscles]
-        split = system.refine_edges(rest, edges, core_muscles, factor)
-        if len(split) == 0:
-            return Result(i)
-        # whole faces around the offending edges, so interior faces split into clean quads
         corner, starts, sizes = meshio.read_polygons(me)
-        bad_vert = np.zeros(len(rest), bool)
-        bad_vert[edges[split].ravel()] = True
-        face_of_corner = np.repeat(np.arange(len(sizes)), sizes)
-        bad_face = np.zeros(len(sizes), bool)
-        bad_face[face_of_corner[bad_vert[corner]]] = True
-        grow = int(bad_face.sum()) * 5
-        if len(rest) + grow > max_vertices:
+        split, grid_quads = refinement.split_edges(rest, edges, corner, starts, sizes, need)
+        if len(rest) + len(split) + grid_quads > max_vertices:
             return Result(i, f"Stopped: refining further would exceed {max_vertices} vertices")
-        bm = bmesh.new()
-        try:
-            bm.from_mesh(me)
-            bm.faces.ensure_lookup_table()
-            chosen = {e for f in np.flatnonzero(bad_face) for e in bm.faces[int(f)].edges}
-            bmesh.ops.subdivide_edges(bm, edges=list(chosen), cuts=1, use_grid_fill=True)
-            bm.to_mesh(me)
-        finally:
-            bm.free()
-        me.update()
-    return Result(MAX_PASSES, "Stopped after the maximum number of passes")
+        _pass(me, edges[split], split)
+    return Result(MAX_PASSES, f"Stopped after {MAX_PASSES} passes: {len(need)} edges are still "
+                              f"longer than a {factor:g}th of their half cycle")

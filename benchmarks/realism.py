@@ -1,0 +1,317 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""How real the muscle wrinkles look: furrow counts, continuity, angles, spacing, depths.
+
+Run:  .venv45/bin/python benchmarks/realism.py   (or .venv52)
+      options: --faces ict,procedural (both by default)  --npz PATH  --step 0.5  --dump DIR
+
+Prints one JSON line per (face, expression) on stdout, e.g.::
+
+    {"face": "ict", "expression": "brow_raise", "furrows": 4, "continuity": 0.7, "angle_deg": 6.0,
+     "spacing_cv": 0.2, "furrow_bulge_ratio": 1.8, "eyelid_lip_max_mm": 0.0}
+
+with the keys that apply to the expression (progress and details go to stderr).  How each
+number is measured, and its goal, is in ``benchmarks/realism_measures.py``.
+
+The faces, rigged as the sample scenes rig them (``sample_scenes/lib/rigging.py``):
+
+* ``ict``: the scanned ICT head (``../shared/data/ict_head.npz``, not shipped; skipped with
+  a message when absent), as ``sample_scenes/scanned_head.py`` builds it: its landmarks
+  from ``sample_scenes/lib/ict.py``, the facial muscle set wrinkles-only, the regions
+  refined, posed by its ARKit shape keys: brow_raise = browInnerUp_L/R + browOuterUp_L/R,
+  brow_down = browDown_L/R, smile = mouthSmile_L/R, all at 1.  ``--npz PATH`` runs the
+  same on any head file with the ICT layout (its face is named after the file).
+* ``procedural``: ``sample_scenes/lib/headgen.py``'s head (40k vertices) as
+  ``sample_scenes/head.py`` builds it: pulling muscles posed by the add-on's expression
+  presets (``wrinkle.expression``): brow_raise = Surprise, brow_down = Frowning.  There is
+  no smile preset: smile contracts both Zygomaticus Major fully (keyed like the operator
+  keys a preset).
+
+Each pose is a frame; on it the add-on's own frame stage runs (the handler), and the
+heights are computed with the functions it calls: the muscle source's ``build`` (the plan,
+``core.muscles.system.build_plan``) on the face's mesh read by ``glue.meshio``, the skin the
+*Wrinkles* modifier stored (``wrinkle_skin``), the source's contractions, and
+``core.muscles.system.heights`` and ``evaluate``.  The wrinkled skin is checked against
+what the frame stage left in the evaluated mesh (``offset_check_mm`` on stderr).  Heights and positions are in
+millimetres; the positions are the wrinkled skin (skin + pull + heights), in the face's
+local space.  The regions are set from the landmarks, each moved with the skin (the
+nearest vertex's posed position):
+
+* forehead: x between the outer brows, z from the highest brow landmark to the hairline;
+  the brow line runs through the two outer brows;
+* glabella: x within 0.4 half brow widths of the glabella, z from halfway between the
+  eyes and the glabella up to 0.4 of the way to the hairline;
+* below the eyes: z from the chin to the lower eye, x within the cheekbones; each
+  nasolabial band is 0.3 mouth half-widths (corner to midline) either side of the segment
+  from 0.1 of that beside and above the nose's wing to 0.4 of it beside and 0.2 below the
+  mouth corner;
+* eyelids and lips: the add-on's zones (``core.zones.face_zones``), on the rest mesh.
+"""
+
+import argparse
+import json
+import sys
+import time
+import traceback
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+import bpy  # noqa: E402, I001
+import addon_utils  # noqa: E402
+import numpy as np  # noqa: E402
+
+from benchmarks import realism_measures as rm  # noqa: E402
+
+ICT_POSES = {
+    "brow_raise": {"browInnerUp_L": 1.0, "browInnerUp_R": 1.0, "browOuterUp_L": 1.0, "browOuterUp_R": 1.0},
+    "brow_down": {"browDown_L": 1.0, "browDown_R": 1.0},
+    "smile": {"mouthSmile_L": 1.0, "mouthSmile_R": 1.0},
+}
+PROCEDURAL_POSES = {"brow_raise": "SURPRISE", "brow_down": "FROWN", "smile": {"ZYGOMATICUS_MAJOR": 1.0}}
+BROWS = ("brow_inner_L", "brow_inner_R", "brow_mid_L", "brow_mid_R", "brow_outer_L", "brow_outer_R")
+
+
+def log(msg):
+    print(f"[realism] {msg}", file=sys.stderr, flush=True)
+
+
+def clean(value):
+    if isinstance(value, dict):
+        return {k: clean(v) for k, v in value.items()}
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return round(float(value), 3)
+    return value
+
+
+# --------------------------------------------------------------------------- faces
+def build_ict(path):
+    from sample_scenes.lib import ict, rigging
+
+    data = ict.load_ict(path)
+    face = ict.ict_object(data, name="ICTHead")
+    rigging.wrinkle_face(face, data["landmarks"], wrinkles_only=True)
+    frames = {i + 1: values for i, values in enumerate(ICT_POSES.values())}
+    rigging.key_shape_keys(face, frames)
+    return face, data["landmarks"], dict(zip(ICT_POSES, frames))
+
+
+def build_procedural(target_verts=40000):
+    from sample_scenes.lib import headgen, rigging, scene_setup
+
+    head = headgen.make_head(target_verts)
+    face = scene_setup.mesh_object_from_arrays("Head", head["positions"], head["quads"], head["corner_uvs"])
+    rigging.wrinkle_face(face, head["landmarks"])
+    scene = bpy.context.scene
+    frames = {}
+    for i, (name, pose) in enumerate(PROCEDURAL_POSES.items()):
+        frames[name] = frame = i + 1
+        if isinstance(pose, str):
+            rigging.key_expressions(face, {frame: pose})
+            continue
+        from wrinkle_addon.glue.muscles import objects
+
+        scene.frame_set(frame)
+        for m in objects.live_muscles(face):  # keyed as the expression operator keys a preset
+            m.ewrinkles_muscle.contraction = pose.get(m.ewrinkles_muscle.role, 0.0)
+            m.keyframe_insert("ewrinkles_muscle.contraction", frame=frame)
+    return face, head["landmarks"], frames
+
+
+# --------------------------------------------------------------------------- heights
+class FaceHeights:
+    """The add-on's wrinkle heights on one face, computed as its frame stage computes them."""
+
+    def __init__(self, face):
+        from wrinkle_addon.core import mesh as core_mesh
+        from wrinkle_addon.glue import meshio, registry
+        from wrinkle_addon.glue.muscles import objects
+
+        self.face = face
+        me = face.data
+        rest = meshio.read_vectors(me, "position")
+        corner, starts, sizes = meshio.read_polygons(me)
+        tris = core_mesh.fan_triangles(corner, starts, sizes)
+        self.mesh = registry.MeshArrays(rest, meshio.read_edges(me), tris)
+        self.source = next(s for s in registry.sources() if s.name == "muscles")
+        in_scene = {o.session_uid for o in bpy.context.scene.objects}
+        self.static = self.source.build(face, self.mesh, in_scene)
+        self.mm = 1000.0 * objects.face_scale(face)  # local units -> mm
+
+    def at(self, frame):
+        """(heights (N,) mm, wrinkled positions (N, 3) mm, largest difference in mm from the
+        positions the frame stage left in the evaluated mesh) on ``frame``."""
+        from wrinkle_addon.core.muscles import system
+        from wrinkle_addon.glue import meshio, stage
+
+        scene = bpy.context.scene
+        scene.frame_set(frame)
+        n = len(self.mesh.rest)
+        ev = self.face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+        skin = meshio.read_vector_prefix(ev, stage.SKIN_ATTR, n, np.empty((n, 3), np.float32))
+        contraction = self.source.inputs(self.face, self.static).values
+        strength = self.face.ewrinkles_face.strength
+        plan = self.static.plan
+        heights = system.heights(plan, skin, contraction, strength)
+        offset = system.evaluate(plan, skin, contraction, strength)
+        # what the user sees: the evaluated mesh after the frame stage ran (it writes into
+        # the evaluated mesh, or back into the original and Blender evaluates it again)
+        ev = self.face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+        shown = meshio.read_vector_prefix(ev, "position", n, np.empty((n, 3), np.float32))
+        check = float(np.abs(shown - (skin + offset)).max()) * self.mm
+        return heights.astype(np.float64) * self.mm, (skin + offset).astype(np.float64) * self.mm, check
+
+
+# --------------------------------------------------------------------------- regions
+def posed_landmarks(rest, posed_mm, landmarks):
+    """Each landmark at the posed position (mm) of its nearest rest vertex; right-side
+    ones missing from ``landmarks`` mirrored about the glabella."""
+    rest = np.asarray(rest, np.float64)
+    out = {}
+    for name, p in landmarks.items():
+        out[name] = posed_mm[int(np.argmin(np.sum((rest - np.asarray(p, float)) ** 2, axis=1)))]
+    g = out["glabella"]
+    for name in list(out):
+        if name.endswith("_L") and name[:-2] + "_R" not in out:
+            q = out[name].copy()
+            q[0] = 2.0 * g[0] - q[0]
+            out[name[:-2] + "_R"] = q
+    return out
+
+
+def forehead_box(lm):
+    x = sorted((lm["brow_outer_R"][0], lm["brow_outer_L"][0]))
+    z_brow = max(lm[k][2] for k in BROWS if k in lm)
+    bo_l, bo_r = lm["brow_outer_L"], lm["brow_outer_R"]
+    angle = float(np.degrees(np.arctan2(bo_l[2] - bo_r[2], bo_l[0] - bo_r[0])))
+    return x, (z_brow, lm["hairline_center"][2]), angle
+
+
+def glabella_box(lm):
+    g = lm["glabella"]
+    bw = 0.5 * abs(lm["brow_outer_L"][0] - lm["brow_outer_R"][0])
+    eye_z = 0.5 * (lm["eye_L"][2] + lm["eye_R"][2])
+    top = g[2] + 0.4 * (lm["hairline_center"][2] - g[2])
+    return (g[0] - 0.4 * bw, g[0] + 0.4 * bw), (0.5 * (eye_z + g[2]), top)
+
+
+def below_eyes(lm):
+    x = sorted((lm["cheekbone_R"][0], lm["cheekbone_L"][0]))
+    return x, (lm["chin"][2], min(lm["eye_L"][2], lm["eye_R"][2]))
+
+
+def nasolabial_bands(grid, lm):
+    g = lm["glabella"]
+    band = np.zeros(grid.h.shape, bool)
+    for side, s in (("L", 1.0), ("R", -1.0)):
+        corner = lm[f"mouth_corner_{side}"]
+        mw = abs(corner[0] - g[0])
+        ala = lm.get(f"nose_ala_{side}")
+        if ala is None:  # the wing of the nose, roughly, from the nose tip
+            ala = lm["nose_tip"] + np.array([s * 0.65 * mw, 0.0, -0.3 * mw])
+        a = (ala[0] + s * 0.1 * mw, ala[2] + 0.1 * mw)
+        b = (corner[0] + s * 0.4 * mw, corner[2] - 0.2 * mw)
+        band |= rm.segment_band(grid, a, b, 0.3 * mw)
+    return band
+
+
+# --------------------------------------------------------------------------- measures
+def measure(name, expression, heights, posed, fh, landmarks, zones, step, dump):
+    tris = fh.mesh.tris
+    lm = posed_landmarks(fh.mesh.rest, posed, landmarks)
+    row = {"face": name, "expression": expression}
+    grids = {}
+    if expression == "brow_raise":
+        x, z, angle = forehead_box(lm)
+        grids["forehead"] = grid = rm.front_grid(posed, tris, heights, x, z, step)
+        got = rm.forehead(grid, brow_angle_deg=angle)
+        row.update(got)
+        log(f"{name} {expression}: forehead x {x[0]:.1f}..{x[1]:.1f} z {z[0]:.1f}..{z[1]:.1f} mm, "
+            f"brow line {angle:.1f} deg, min height {np.nanmin(grid.h):.3f} mm, max {np.nanmax(grid.h):.3f}")
+    elif expression == "brow_down":
+        x, z = glabella_box(lm)
+        grids["glabella"] = grid = rm.front_grid(posed, tris, heights, x, z, step)
+        got = rm.glabella(grid, lm["glabella"][0])
+        sides = got.pop("sides")
+        row.update(got)
+        for side, found in sides.items():
+            found = sorted(found, key=lambda f: -f[1])[:6]
+            log(f"{name} {expression}: side {side}: (angle deg, length >= 0.3 mm deep, depth mm) "
+                + ", ".join(f"({a:.0f}, {length:.1f}, {d:.2f})" for a, length, d in found))
+    elif expression == "smile":
+        x, z = below_eyes(lm)
+        grids["below_eyes"] = grid = rm.front_grid(posed, tris, heights, x, z, step)
+        band = nasolabial_bands(grid, lm)
+        hit, low, other = rm.deepest_in_band(grid, band)
+        in_band = float(np.nanmin(np.where(band, grid.h, np.nan))) if (band & grid.valid).any() else 0.0
+        row["nasolabial_deepest"] = hit
+        log(f"{name} {expression}: deepest below the eyes {low:.3f} mm, in the nasolabial bands "
+            f"{in_band:.3f} mm, elsewhere {other:.3f} mm")
+    row["eyelid_lip_max_mm"] = rm.max_abs(heights, zones.eyelid | zones.lip)
+    if dump:
+        Path(dump).mkdir(parents=True, exist_ok=True)
+        arrays = {f"{k}_{a}": getattr(g, a) for k, g in grids.items() for a in ("h", "y", "xs", "zs")}
+        np.savez_compressed(Path(dump) / f"{name}_{expression}.npz", **arrays)
+    return row
+
+
+def run_face(name, build, step, dump):
+    from wrinkle_addon.core import zones as core_zones
+
+    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    t = time.perf_counter()
+    face, landmarks, frames = build()
+    fh = FaceHeights(face)
+    log(f"{name}: built in {time.perf_counter() - t:.1f} s, {len(fh.mesh.rest)} vertices, "
+        f"{len(fh.static.plan.region_sizes)} muscles")
+    zones = core_zones.face_zones(fh.mesh.rest, landmarks)
+    for expression, frame in frames.items():
+        heights, posed, check = fh.at(frame)
+        log(f"{name} {expression}: offset_check_mm {check:.2e} (the frame stage's offsets against ours)")
+        row = measure(name, expression, heights, posed, fh, landmarks, zones, step, dump)
+        print(json.dumps(clean(row)), flush=True)
+
+
+def main(argv):
+    from sample_scenes.lib import ict
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--faces", default="ict,procedural", help="comma-separated: ict, procedural")
+    ap.add_argument("--npz", default=None, help="a head file with the ICT layout (default: the ICT head)")
+    ap.add_argument("--step", type=float, default=0.5, help="grid step in mm")
+    ap.add_argument("--dump", default=None, help="a folder to save the resampled grids in (.npz)")
+    args = ap.parse_args(argv)
+    faces = [f.strip() for f in args.faces.split(",") if f.strip()]
+    path = Path(args.npz) if args.npz else ict.DEFAULT_PATH
+    ict_name = "ict" if args.npz is None else path.stem
+    log(f"bpy {bpy.app.version_string}, numpy {np.__version__}")
+    addon_utils.enable("wrinkle_addon", default_set=True)
+    failed = False
+    try:
+        for name in faces:
+            if name == "ict":
+                if not path.exists():
+                    log(f"{path} not found: the ICT face is skipped")
+                    continue
+                run_face(ict_name, lambda: build_ict(path), args.step, args.dump)
+            elif name == "procedural":
+                run_face("procedural", build_procedural, args.step, args.dump)
+            else:
+                log(f"unknown face {name!r}")
+                failed = True
+    except Exception:  # noqa: BLE001 - report, then exit cleanly
+        failed = True
+        log(traceback.format_exc())
+    finally:
+        bpy.ops.wm.read_factory_settings(use_empty=True)  # bpy 4.5 hangs at exit otherwise
+    if failed:
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

@@ -1,0 +1,543 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Find the eight facial landmarks of ``presets.LANDMARKS`` on a face mesh.
+
+Face-local coordinates, the face looking toward -Y, Z up, the character's left +X (the
+convention of ``presets``).  Three rules are tried in order; the first that fits gives
+the *anchors*, the centres of both eyes and the two mouth corners:
+
+1. **openings**: the mesh's own eye and mouth holes.  The boundary loops (edges used by
+   one face) are grouped into connected loops; a mirrored pair of small loops side by
+   side are the eyes, a loop on their midline, one to two eye distances below them, the
+   mouth.  The eye is the centre of its loop, the mouth corners the loop's ends in X.
+2. **rig**: ARKit-style shape keys.  ``eyeBlink`` moves the upper lids: the eye is the
+   middle of the lid's travel at the vertices it moves most.  ``mouthSmile`` moves the
+   mouth corners most, ``jawOpen`` the lower lip: the corner is the vertex the smile
+   moves most, lifted onto the mouth line (the top of the lower lip ``jawOpen`` moves).
+   ``browInnerUp`` marks the inner brows, which bound the search for the glabella.
+   Names may end in ``_L``/``_R``, ``.L``/``.R`` or ``Left``/``Right``; the sides are
+   told apart by where the vertices lie, not by the names.
+3. **geometry**, for a closed sculpt: the nose tip is the most forward point; the face is
+   read as a depth image seen from the front (the nearest front-facing surface in each
+   cell).  The eyes are the sockets, the deepest hollows either side of the nose at the
+   height of the nasal bridge; the mouth line is the deepest point of the midline profile
+   between the lips, and its corners the pits at the ends of the lip line.
+
+The rest follows from the anchors on every rule, measured on the same depth image with
+``E`` the distance between the eyes: the nose tip is the most forward point between the
+mouth and the eyes; on the midline profile the nasion is the deepest point at the eyes'
+height, the glabella the most forward point above it (up to the inner brows when the rig
+marks them) and the chin the most forward point below the lower lip.  The brow's outer end
+is on the brow ridge (the most convex point of the profile above the eye) ``0.26 E`` out
+from the eye; the hairline, which a bald mesh does not show, is ``0.9 E`` above the
+glabella; the cheekbone is ``0.3 E`` out from and ``0.31 E`` below the eye.  Every point
+but the eye is then put on the surface seen from the front.
+
+A face no rule fits (no nose, no eyes: a sphere, a cube) gets the bounding-box guess of
+``presets.estimate_landmarks`` and a message saying so.  Pure NumPy; no loop over
+vertices (only over the few boundary loops, the landmarks and a handful of passes over
+the small depth image).
+"""
+
+import numpy as np
+
+from .. import mesh as core_mesh
+from . import presets
+
+RULES = ("openings", "rig", "geometry")
+FALLBACK = "bounding box"
+LABELS = {
+    "openings": "the eye and mouth openings",
+    "rig": "the shape keys (eyeBlink, jawOpen, browInnerUp, mouthSmile)",
+    "geometry": "the shape of the face (nose, eye sockets, lips)",
+    FALLBACK: "the face's bounding box",
+}
+FALLBACK_MESSAGE = ("No eye or mouth openings, ARKit shape keys or recognisable nose and eye "
+                    "sockets were found: the landmarks are guessed from the face's bounding box. "
+                    "Move each onto its feature before adding the muscle set")
+
+# Proportions in units of E, the distance between the eye centres (module doc).
+BROW_OUT = 0.26
+BROW_UP = 0.25
+HAIRLINE_UP = 0.90
+CANTHUS = 0.22  # the eye's corners either side of its centre
+CHEEK_OUT, CHEEK_DOWN = 0.30, 0.31
+MOUTH_HALF_WIDTH = 0.38
+CHIN_TILT = np.tan(np.radians(45.0))  # the chin's front ends where it turns this far under
+GRID = 220  # depth-image cells along the larger side of the front view
+
+
+class NotFound(Exception):
+    """A rule does not fit this face."""
+
+
+# --------------------------------------------------------------------------
+# Topology
+# --------------------------------------------------------------------------
+def polygons(faces):
+    """``(corner_verts, starts, sizes)`` from an (F, k) array or from such a tuple."""
+    if isinstance(faces, tuple) and len(faces) == 3:
+        corner, starts, sizes = (np.asarray(a, np.int64).ravel() for a in faces)
+        return corner, starts, sizes
+    f = np.asarray(faces, np.int64)
+    f = f.reshape(len(f), -1)
+    k = f.shape[1]
+    return f.ravel(), np.arange(len(f), dtype=np.int64) * k, np.full(len(f), k, np.int64)
+
+
+def polygon_edges(corner, starts, sizes):
+    """(C, 2) vertex pairs, one per face corner: the corner and the next one."""
+    owner = np.repeat(np.arange(len(sizes)), sizes)
+    local = np.arange(len(corner)) - starts[owner]
+    nxt = starts[owner] + (local + 1) % sizes[owner]
+    return np.stack([corner, corner[nxt]], axis=1)
+
+
+def boundary_loops(corner, starts, sizes):
+    """The boundary loops (edges used by one face) as a list of vertex-index arrays,
+    largest first."""
+    e = np.sort(polygon_edges(corner, starts, sizes), axis=1)
+    uniq, count = np.unique(e, axis=0, return_counts=True)
+    border = uniq[count == 1]
+    if len(border) == 0:
+        return []
+    verts, index = np.unique(border, return_inverse=True)
+    index = index.reshape(-1, 2)
+    label = np.arange(len(verts))
+    while True:  # min-label propagation with pointer jumping: a few dozen passes at most
+        low = np.minimum(label[index[:, 0]], label[index[:, 1]])
+        new = label.copy()
+        np.minimum.at(new, index[:, 0], low)
+        np.minimum.at(new, index[:, 1], low)
+        new = new[new]
+        if np.array_equal(new, label):
+            break
+        label = new
+    _u, comp = np.unique(label, return_inverse=True)
+    order = np.argsort(comp, kind="stable")
+    counts = np.bincount(comp)
+    loops = np.split(verts[order], np.cumsum(counts)[:-1])
+    return sorted(loops, key=len, reverse=True)
+
+
+# --------------------------------------------------------------------------
+# The depth image: the nearest front-facing surface seen along +Y
+# --------------------------------------------------------------------------
+class Depth:
+    """Depth image of the front view: ``y[row, col]`` (NaN where no front-facing surface
+    is seen); column ``i`` is at x = x0 + i·cell, row ``j`` at z = z0 + j·cell."""
+
+    def __init__(self, p, tris):
+        tri_n = np.cross(p[tris[:, 1]] - p[tris[:, 0]], p[tris[:, 2]] - p[tris[:, 0]])
+        front = tri_n[:, 1] < -0.05 * np.linalg.norm(tri_n, axis=1)
+        t = tris[front]
+        lo, hi = p.min(axis=0), p.max(axis=0)
+        self.cell = max(hi[0] - lo[0], hi[2] - lo[2]) / GRID
+        self.x0, self.z0 = lo[0], lo[2]
+        nx = int((hi[0] - lo[0]) / self.cell) + 2
+        nz = int((hi[2] - lo[2]) / self.cell) + 2
+        # Sample each triangle densely enough that every cell it covers gets a sample.
+        span = np.max(np.linalg.norm(p[t[:, [1, 2, 0]]] - p[t], axis=2), axis=1) if len(t) else np.zeros(0)
+        k = int(np.clip(np.ceil(np.percentile(span, 99) / (0.7 * self.cell)) if len(t) else 1, 1, 12))
+        ij = np.array([(i, j) for i in range(k + 1) for j in range(k + 1 - i)], float) / k
+        bary = np.stack([1.0 - ij.sum(axis=1), ij[:, 0], ij[:, 1]], axis=1)
+        pts = np.einsum("bk,tkd->tbd", bary, p[t]).reshape(-1, 3)
+        col = np.clip(((pts[:, 0] - self.x0) / self.cell).round().astype(np.int64), 0, nx - 1)
+        row = np.clip(((pts[:, 2] - self.z0) / self.cell).round().astype(np.int64), 0, nz - 1)
+        y = np.full(nz * nx, np.inf)
+        np.minimum.at(y, row * nx + col, pts[:, 1])
+        self.y = np.where(np.isfinite(y), y, np.nan).reshape(nz, nx)
+        self.shape = (nz, nx)
+
+    def col(self, x):
+        return int(np.clip(round((x - self.x0) / self.cell), 0, self.shape[1] - 1))
+
+    def row(self, z):
+        return int(np.clip(round((z - self.z0) / self.cell), 0, self.shape[0] - 1))
+
+    def xz(self, row, col):
+        return self.x0 + col * self.cell, self.z0 + row * self.cell
+
+    def profile(self, x, half_width):
+        """The front-most y of every row within ``half_width`` of ``x`` (NaN where none)."""
+        a, b = self.col(x - half_width), self.col(x + half_width)
+        block = self.y[:, a:b + 1]
+        ok = np.isfinite(block).any(axis=1)
+        out = np.full(self.shape[0], np.nan)
+        out[ok] = np.nanmin(block[ok], axis=1)
+        return out
+
+    def rows_between(self, z_lo, z_hi):
+        return np.arange(self.row(min(z_lo, z_hi)), self.row(max(z_lo, z_hi)) + 1)
+
+
+def blur(a, radius):
+    """Box blur of a 2-D image over NaNs (NaN cells neither count nor get filled)."""
+    r = max(int(radius), 1)
+    ok = np.isfinite(a)
+    v = np.where(ok, a, 0.0)
+    w = ok.astype(float)
+    for axis in (0, 1):
+        v, w = _box(v, r, axis), _box(w, r, axis)
+    out = np.full(a.shape, np.nan)
+    out[w > 0] = v[w > 0] / w[w > 0]
+    return out
+
+
+def _box(a, r, axis):
+    c = np.cumsum(np.pad(a, [(r + 1, r) if i == axis else (0, 0) for i in range(2)]), axis=axis)
+    n = a.shape[axis]
+    hi = np.take(c, np.arange(2 * r + 1, 2 * r + 1 + n), axis=axis)
+    lo = np.take(c, np.arange(0, n), axis=axis)
+    return hi - lo
+
+
+def smooth1(a, radius):
+    """Moving average of a 1-D profile over NaNs (a copy when ``radius`` < 1 cell)."""
+    return blur(a[:, None], radius)[:, 0] if radius >= 1 else a.copy()
+
+
+# --------------------------------------------------------------------------
+# The rules: each returns the anchors (eye_L, eye_R, mouth_L, mouth_R as (3,) points)
+# --------------------------------------------------------------------------
+def _openings(p, loops, scale):
+    """Rule 1: the eye and mouth boundary loops."""
+    holes = []
+    for v in loops:  # a handful of loops
+        q = p[v]
+        size = np.ptp(q, axis=0)
+        if len(v) < 6 or max(size[0], size[2]) > 0.35 * scale:
+            continue  # the neck, the edge of a face mask, a tiny slit
+        holes.append((v, q.mean(axis=0), size))
+    best = None
+    for i, (_vi, ci, si) in enumerate(holes):
+        for j, (_vj, cj, sj) in enumerate(holes):
+            sep = ci[0] - cj[0]
+            if sep <= 0 or abs(ci[2] - cj[2]) > 0.15 * sep or abs(ci[1] - cj[1]) > 0.2 * sep:
+                continue
+            if not (0.3 < si[0] / max(sj[0], 1e-12) < 3.0) or si[0] > 0.8 * sep or sj[0] > 0.8 * sep:
+                continue
+            mid = 0.5 * (ci + cj)
+            for k, (vk, ck, sk) in enumerate(holes):
+                if k in (i, j) or abs(ck[0] - mid[0]) > 0.15 * sep:
+                    continue
+                drop = mid[2] - ck[2]
+                if not (0.6 * sep < drop < 1.9 * sep and 0.3 * sep < sk[0] < 1.6 * sep):
+                    continue
+                score = (abs(ci[2] - cj[2]) + abs(ck[0] - mid[0])
+                         + abs(abs(ci[0] - mid[0]) - abs(cj[0] - mid[0])))
+                if best is None or score < best[0]:
+                    best = (score, ci, cj, vk)
+    if best is None:
+        raise NotFound("no eye and mouth openings")
+    _s, eye_l, eye_r, mouth = best
+    m = p[mouth]
+    return {"eye_L": eye_l, "eye_R": eye_r, "mouth_L": m[np.argmax(m[:, 0])],
+            "mouth_R": m[np.argmin(m[:, 0])]}, {}
+
+
+def _keys_named(shape_keys, stem):
+    """Shape keys whose name, lowercased without separators or side suffixes, is ``stem``."""
+    out = []
+    for name, co in shape_keys.items():  # a few dozen keys
+        s = name.lower().replace("_", "").replace(".", "").replace(" ", "")
+        for suffix in ("left", "right", "l", "r"):
+            if s.endswith(suffix) and s[: -len(suffix)] == stem:
+                s = stem
+        if s == stem:
+            out.append(np.asarray(co, np.float64))
+    return out
+
+
+def _motion(p, keys):
+    """Per-vertex displacement (N, 3) of each key, stacked: (K, N, 3)."""
+    return np.stack([k.reshape(-1, 3) - p for k in keys])
+
+
+def _rig(p, shape_keys, scale):
+    """Rule 2: the vertices eyeBlink, jawOpen, browInnerUp and mouthSmile move."""
+    if not shape_keys:
+        raise NotFound("no shape keys")
+    blink, smile = _keys_named(shape_keys, "eyeblink"), _keys_named(shape_keys, "mouthsmile")
+    jaw, brow = _keys_named(shape_keys, "jawopen"), _keys_named(shape_keys, "browinnerup")
+    if not blink or not smile:
+        raise NotFound("no eyeBlink and mouthSmile shape keys")
+    n = len(p)
+    if any(k.size != 3 * n for k in blink + smile + jaw + brow):
+        raise NotFound("shape keys of another vertex count")
+    d_blink = _motion(p, blink)
+    amount = np.linalg.norm(d_blink, axis=2).max(axis=0)
+    if amount.max() < 1e-4 * scale:
+        raise NotFound("eyeBlink moves nothing")
+    moved = amount > 0.2 * amount.max()
+    mid_x = np.average(p[moved, 0], weights=amount[moved])
+    disp = d_blink.sum(axis=0)
+    out = {}
+    for side, sign in (("L", 1.0), ("R", -1.0)):
+        lid = (sign * (p[:, 0] - mid_x) > 0) & (amount > 0.8 * amount[sign * (p[:, 0] - mid_x) > 0].max())
+        if not lid.any():
+            raise NotFound("eyeBlink moves one eye only")
+        eye = (p[lid] + 0.5 * disp[lid]).mean(axis=0)
+        out[f"eye_{side}"] = eye
+    sep = out["eye_L"][0] - out["eye_R"][0]
+    if sep <= 0.05 * scale:
+        raise NotFound("eyeBlink does not move two eyes")
+    a_smile = np.linalg.norm(_motion(p, smile), axis=2).max(axis=0)
+    a_jaw = np.linalg.norm(_motion(p, jaw), axis=2).max(axis=0) if jaw else None
+    for side, sign in (("L", 1.0), ("R", -1.0)):
+        half = sign * (p[:, 0] - mid_x) > 0.1 * sep
+        corner = p[np.flatnonzero(half)[np.argmax(a_smile[half])]].copy()
+        if a_jaw is not None:
+            # The mouth line near the corner: the highest vertex the jaw moves at least
+            # half as much as the lower lip, within a corner's width of the smile's peak.
+            near = (np.abs(p[:, 0] - corner[0]) < 0.08 * sep) & (np.abs(p[:, 2] - corner[2]) < 0.25 * sep)
+            near &= p[:, 1] < corner[1] + 0.15 * sep
+            lower = near & (a_jaw > 0.5 * a_jaw[near].max()) if near.any() else near
+            if lower.any():
+                corner[2] = p[lower, 2].max()
+        out[f"mouth_{side}"] = corner
+    hints = {"corner_pit": True}
+    if brow:
+        a_brow = np.linalg.norm(_motion(p, brow), axis=2).max(axis=0)
+        top = a_brow > 0.8 * a_brow.max()
+        if top.any():
+            hints["brow_z"] = float(p[top, 2].mean())
+    if not (0.6 * sep < 0.5 * (out["eye_L"][2] + out["eye_R"][2]) - out["mouth_L"][2] < 1.9 * sep):
+        raise NotFound("the shape keys' eyes and mouth are not where a face has them")
+    return out, hints
+
+
+def _geometry(p, depth, scale):
+    """Rule 3: the nose tip, the eye sockets and the lips of a closed surface."""
+    y = depth.y
+    if not np.isfinite(y).any():
+        raise NotFound("nothing faces the front")
+    cell = depth.cell
+    # The nose tip: the most forward point, standing out of its surroundings.
+    r, c = np.unravel_index(np.nanargmin(y), y.shape)
+    nose_x, nose_z = depth.xz(r, c)
+    seen = np.flatnonzero(np.isfinite(y[r]))
+    scale = (seen[-1] - seen[0]) * cell  # the width of the head at the nose
+    if scale <= 0:
+        raise NotFound("no face")
+    around = blur(y, 0.08 * scale / cell)
+    if not np.isfinite(around[r, c]) or around[r, c] - y[r, c] < 0.03 * scale:
+        raise NotFound("no nose stands out of the front")
+    # The eyes: the deepest hollows (relative to a wide blur, holes counting as deep)
+    # either side of the nose, above it.
+    deep_fill = np.where(np.isfinite(y), y, np.nanmax(y))
+    hollow = deep_fill - blur(deep_fill, 0.12 * scale / cell)
+    hollow = blur(hollow, 0.02 * scale / cell)
+    bulge = blur(y, 0.04 * scale / cell) - y
+    rows = depth.rows_between(nose_z + 0.08 * scale, nose_z + 0.45 * scale)
+    eyes = {}
+    for side, sign in (("L", 1.0), ("R", -1.0)):
+        step = int(sign)
+        cols = np.arange(depth.col(nose_x + sign * 0.08 * scale),
+                         depth.col(nose_x + sign * 0.42 * scale) + step, step)
+        block = hollow[np.ix_(rows, cols)]
+        if not np.isfinite(block).any():
+            raise NotFound("no eye sockets")
+        i, j = np.unravel_index(np.nanargmax(block), block.shape)
+        # The socket's centre: the centroid of its deepest part.
+        peak = block[i, j]
+        if not peak > 0.01 * scale:
+            raise NotFound("no eye sockets")
+        w = np.where(np.isfinite(block) & (block > 0.85 * peak), block, 0.0)
+        ii, jj = np.meshgrid(np.arange(len(rows)), np.arange(len(cols)), indexing="ij")
+        ri = rows[0] + float((w * ii).sum() / w.sum())
+        cj = cols[0] + sign * float((w * np.abs(jj)).sum() / w.sum())
+        ex, ez = depth.x0 + cj * cell, depth.z0 + ri * cell
+        if np.isfinite(y[int(round(ri)), int(round(cj))]):
+            # A closed eye: the lid bulges over the eyeball inside the socket; its centre
+            # is the most forward point relative to its surroundings near the socket.
+            rr = depth.rows_between(ez - 0.04 * scale, ez + 0.04 * scale)
+            near, far = ex - sign * 0.02 * scale, ex + sign * 0.06 * scale
+            cc = np.arange(depth.col(min(near, far)), depth.col(max(near, far)) + 1)
+            patch = bulge[np.ix_(rr, cc)]
+            if np.isfinite(patch).any() and np.nanmax(patch) > 0:
+                w = np.where(np.isfinite(patch) & (patch > 0.7 * np.nanmax(patch)), patch, 0.0)
+                i2, j2 = np.meshgrid(rr, cc, indexing="ij")
+                ez = depth.z0 + float((w * i2).sum() / w.sum()) * cell
+                ex = depth.x0 + float((w * j2).sum() / w.sum()) * cell
+        eyes[side] = np.array([ex, _surface_y(depth, ex, ez), ez])
+    sep = eyes["L"][0] - eyes["R"][0]
+    if sep < 0.1 * scale or abs(eyes["L"][2] - eyes["R"][2]) > 0.2 * sep:
+        raise NotFound("no pair of eye sockets")
+    mid_x = 0.5 * (eyes["L"][0] + eyes["R"][0])
+    # The mouth line: the deepest point of the midline profile between the lips, below
+    # the nose; the lips are the two most forward bumps under it.
+    prof = smooth1(depth.profile(mid_x, 0.02 * sep), 0.01 * sep / cell)
+    eye_z = 0.5 * (eyes["L"][2] + eyes["R"][2])
+    band = depth.rows_between(eye_z - 1.7 * sep, nose_z - 0.25 * sep)
+    mouth_row = _lip_line(prof, band)
+    if mouth_row is None:
+        raise NotFound("no lips under the nose")
+    _mx, mouth_z = depth.xz(mouth_row, 0)
+    # The corners: a closed mouth shows them too faintly to find, so they are put at the
+    # mouth's usual half width (MOUTH_HALF_WIDTH E) either side of the midline.
+    out = {"eye_L": eyes["L"], "eye_R": eyes["R"]}
+    for side, sign in (("L", 1.0), ("R", -1.0)):
+        x = mid_x + sign * MOUTH_HALF_WIDTH * sep
+        out[f"mouth_{side}"] = np.array([x, _surface_y(depth, x, mouth_z), mouth_z])
+    return out, {"corner_pit": True}
+
+
+def _lip_line(prof, band):
+    """Row of the mouth line: the deepest point between the two most forward bumps
+    (the lips) of the profile ``prof`` within ``band`` (rows, bottom up), or None."""
+    seg = prof[band]
+    ok = np.isfinite(seg)
+    if ok.sum() < 5:
+        return None
+    # Local minima of y (forward bumps) and maxima (hollows), ignoring NaNs.
+    idx = np.flatnonzero(ok)
+    s = seg[idx]
+    bump = idx[1:-1][(s[1:-1] <= s[:-2]) & (s[1:-1] <= s[2:])]
+    if len(bump) < 2:
+        return None
+    top2 = np.sort(bump[np.argsort(seg[bump])[:2]])
+    lo, hi = top2
+    if hi - lo < 2:
+        return None
+    between = np.arange(lo, hi + 1)
+    between = between[np.isfinite(seg[between])]
+    return int(band[between[np.argmax(seg[between])]])
+
+
+def _chin(prof, zs, depth, mouth_z, sep):
+    """z of the front of the chin: the middle of the chin's front face, from the
+    mentolabial sulcus (the first hollow below the lower lip) down to where the profile
+    turns under by more than 45 degrees."""
+    lip = depth.rows_between(mouth_z - 0.3 * sep, mouth_z)
+    seg = prof[lip]
+    if not np.isfinite(seg).any():
+        return mouth_z - 0.45 * sep
+    r = int(lip[np.nanargmin(seg)])  # the lower lip, most forward
+    stop = depth.row(mouth_z - 1.2 * sep)
+    while r - 1 > stop and np.isfinite(prof[r - 1]) and prof[r - 1] >= prof[r]:
+        r -= 1  # walk down the lip's underside to the sulcus (rows, not vertices)
+    sulcus = r
+    while r - 1 > stop and np.isfinite(prof[r - 1]) and prof[r - 1] - prof[r] < CHIN_TILT * depth.cell:
+        r -= 1  # down the chin's front until it turns under
+    return 0.5 * (zs[sulcus] + zs[r])
+
+
+def _surface_y(depth, x, z):
+    """The front surface's y at (x, z): the nearest seen cell around it."""
+    r, c = depth.row(z), depth.col(x)
+    for k in (0, 1, 2, 4, 8):  # widen until something is seen
+        block = depth.y[max(r - k, 0):r + k + 1, max(c - k, 0):c + k + 1]
+        if np.isfinite(block).any():
+            return float(np.nanmin(block))
+    return float(np.nanmin(depth.y))
+
+
+# --------------------------------------------------------------------------
+# From the anchors to the eight landmarks
+# --------------------------------------------------------------------------
+def _complete(p, depth, anchors, hints):
+    eye_l, eye_r = anchors["eye_L"], anchors["eye_R"]
+    mouth_l, mouth_r = anchors["mouth_L"], anchors["mouth_R"]
+    sep = eye_l[0] - eye_r[0]
+    mid_x = 0.25 * (eye_l[0] + eye_r[0] + mouth_l[0] + mouth_r[0])
+    eye_z = 0.5 * (eye_l[2] + eye_r[2])
+    mouth_z = 0.5 * (mouth_l[2] + mouth_r[2])
+    cell = depth.cell
+    # The eye: the left eye mirrored onto the right one's, averaged (the two agree on a
+    # symmetric face and the mean halves the noise of either).
+    eye = 0.5 * (eye_l + eye_r * np.array([-1.0, 1.0, 1.0]) + np.array([2.0 * mid_x, 0.0, 0.0]))
+    mouth = 0.5 * (mouth_l + mouth_r * np.array([-1.0, 1.0, 1.0]) + np.array([2.0 * mid_x, 0.0, 0.0]))
+    if hints.get("corner_pit"):  # the corner of a closed mouth sits in a pit: the deepest spot near it
+        r, c, k = depth.row(mouth[2]), depth.col(mouth[0]), max(int(0.05 * sep / depth.cell), 1)
+        block = depth.y[max(r - k, 0):r + k + 1, max(c - k, 0):c + k + 1]
+        if np.isfinite(block).any():
+            mouth[1] = float(np.nanmax(block))
+    # The nose tip: the most forward vertex between the mouth and the eyes, near the midline.
+    near = (np.abs(p[:, 0] - mid_x) < 0.3 * sep) & (p[:, 2] > mouth_z) & (p[:, 2] < eye_z)
+    if not near.any():
+        raise NotFound("no nose between the eyes and the mouth")
+    nose = p[np.flatnonzero(near)[np.argmin(p[near, 1])]]
+    prof = smooth1(depth.profile(mid_x, 0.03 * sep), 0.02 * sep / cell)
+    zs = depth.z0 + np.arange(depth.shape[0]) * cell
+
+    def extreme(z_lo, z_hi, deepest):
+        rows = depth.rows_between(z_lo, z_hi)
+        seg = prof[rows]
+        if not np.isfinite(seg).any():
+            return None
+        return int(rows[np.nanargmax(seg) if deepest else np.nanargmin(seg)])
+
+    nasion = extreme(eye_z - 0.1 * sep, eye_z + 0.2 * sep, True)
+    nasion_z = zs[nasion] if nasion is not None else eye_z
+    top = hints.get("brow_z", nasion_z + 0.3 * sep)
+    top = min(max(top, nasion_z + 0.15 * sep), nasion_z + 0.3 * sep)
+    g = extreme(nasion_z, top, False)
+    glab_z = zs[g] if g is not None else eye_z + 0.3 * sep
+    chin_z = _chin(prof, zs, depth, mouth_z, sep)
+    # The brow's outer end, and the eye's depth: the mean of the surface at its two
+    # corners (an eye may be an opening, or a lid bulging out of its socket).
+    bx, brow_z = eye[0] + BROW_OUT * sep, eye[2] + BROW_UP * sep
+    eye = np.array([eye[0], 0.5 * (_surface_y(depth, eye[0] - CANTHUS * sep, eye[2])
+                                   + _surface_y(depth, eye[0] + CANTHUS * sep, eye[2])), eye[2]])
+    xz = {
+        "hairline_center": (mid_x, glab_z + HAIRLINE_UP * sep),
+        "glabella": (mid_x, glab_z),
+        "brow_outer_L": (bx, brow_z),
+        "nose_tip": None,
+        "mouth_corner_L": None,
+        "chin": (mid_x, chin_z),
+        "cheekbone_L": (eye[0] + CHEEK_OUT * sep, eye[2] - CHEEK_DOWN * sep),
+        "eye_L": None,
+    }
+    out = {}
+    for key, _label, _desc in presets.LANDMARKS:  # eight landmarks
+        if xz[key] is None:
+            continue
+        x, z = xz[key]
+        out[key] = np.array([x, _surface_y(depth, x, z), z])
+    out["nose_tip"] = np.asarray(nose, np.float64).copy()
+    out["eye_L"] = eye
+    out["mouth_corner_L"] = mouth
+    return {k: out[k] for k, _l, _d in presets.LANDMARKS}
+
+
+# --------------------------------------------------------------------------
+# Public API
+# --------------------------------------------------------------------------
+def find_landmarks(rest, faces, shape_keys=None, rules=RULES):
+    """The eight landmarks of ``presets.LANDMARKS`` on the face ``rest`` (N, 3).
+
+    ``faces``: an (F, k) array of vertex indices or ``(corner_verts, starts, sizes)``.
+    ``shape_keys``: optional ``{name: (N, 3) positions}`` (the key's shape, not its
+    offsets) for the rig rule.  ``rules``: the rules to try, in this order.
+
+    Returns ``(landmarks, method, message)``: ``landmarks`` maps every name of
+    ``presets.LANDMARKS`` to a face-local (3,) float64 point, ``method`` is the rule that
+    fitted (one of ``RULES``) or ``FALLBACK``, ``message`` is empty unless the bounding box
+    was used.
+    """
+    p = np.asarray(rest, np.float64).reshape(-1, 3)
+    lo, hi = p.min(axis=0) if len(p) else np.zeros(3), p.max(axis=0) if len(p) else np.zeros(3)
+    if len(p) >= 4:
+        corner, starts, sizes = polygons(faces)
+        tris = core_mesh.fan_triangles(corner, starts, sizes).astype(np.int64)
+        scale = float(max(hi[0] - lo[0], hi[2] - lo[2]))
+        if len(tris) and scale > 0:
+            depth = None
+            for rule in rules:
+                try:
+                    if rule == "openings":
+                        anchors, hints = _openings(p, boundary_loops(corner, starts, sizes), scale)
+                    elif rule == "rig":
+                        anchors, hints = _rig(p, shape_keys, scale)
+                    elif rule == "geometry":
+                        depth = depth or Depth(p, tris)
+                        anchors, hints = _geometry(p, depth, scale)
+                    else:
+                        raise ValueError(f"unknown rule {rule!r}")
+                    depth = depth or Depth(p, tris)
+                    return _complete(p, depth, anchors, hints), rule, ""
+                except NotFound:
+                    continue
+    guess = presets.estimate_landmarks(lo, hi)
+    return {k: np.asarray(v, np.float64) for k, v in guess.items()}, FALLBACK, FALLBACK_MESSAGE
