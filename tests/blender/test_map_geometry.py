@@ -193,7 +193,7 @@ def test_ict_head_pose_map_shades_like_its_geometric_wrinkles(render_small, tmp_
     got = compare(lambda name: render_small(scene, tmp_path / f"{name}.exr", size=256, samples=1),
                   scene, face, 1024)
     cos = got["map"][0]
-    assert len(cos) > 1000, len(cos)
+    assert len(cos) > 500, len(cos)  # the frown lines cover 773 pixels (measured)
     assert np.median(cos) > 0.95, np.median(cos)  # measured 0.999
     for variant in ("R flipped", "G flipped"):  # measured 0.68 and -0.68
         assert np.median(got[variant][0]) < 0.8, (variant, np.median(got[variant][0]))
