@@ -176,10 +176,12 @@ def test_pose_map_shades_like_the_geometric_wrinkles(render_small, tmp_path, mir
 @pytest.mark.render
 @pytest.mark.skipif(not ICT.exists(), reason=f"{ICT} not found")
 def test_ict_head_pose_map_shades_like_its_geometric_wrinkles(render_small, tmp_path):
-    """The same on the scanned head with lowered brows (frown lines: both derivatives), its
-    UV layout, curvature and perspective.  Where a furrow is sharp, the displaced surface
-    and the map disagree by a pixel or two (the displacement moves the crease in the
-    perspective view), so the median cosine is measured (mean 0.95)."""
+    """The same on the scanned head, its UV layout, curvature and perspective, in two poses:
+    lowered brows (vertical frown lines: the u derivative carries them, so flipping R must
+    fail) and raised brows (horizontal forehead lines: the v derivative, so flipping G must
+    fail).  Where a furrow is sharp, the displaced surface and the map disagree by a pixel
+    or two (the displacement moves the crease in the perspective view), so the median
+    cosine is measured."""
     from sample_scenes.lib import ict, rigging
 
     scene = bpy.context.scene
@@ -187,13 +189,20 @@ def test_ict_head_pose_map_shades_like_its_geometric_wrinkles(render_small, tmp_
     face = ict.ict_object(data, name="ICTHead")
     _portrait_camera(scene, face)
     rigging.wrinkle_face(face, data["landmarks"], wrinkles_only=True)  # refined
-    rigging.key_shape_keys(face, {1: {}, 2: {"browDown_L": 1.0, "browDown_R": 1.0}})
+    down = {"browDown_L": 1.0, "browDown_R": 1.0}
+    up = {"browInnerUp_L": 1.0, "browInnerUp_R": 1.0, "browOuterUp_L": 1.0, "browOuterUp_R": 1.0}
+    rigging.key_shape_keys(face, {1: {}, 2: down, 4: up})
     _exact_pixels(scene)
-    scene.frame_set(2)
-    got = compare(lambda name: render_small(scene, tmp_path / f"{name}.exr", size=256, samples=1),
-                  scene, face, 1024)
-    cos = got["map"][0]
-    assert len(cos) > 500, len(cos)  # the frown lines cover 773 pixels (measured)
-    assert np.median(cos) > 0.95, np.median(cos)  # measured 0.999
-    for variant in ("R flipped", "G flipped"):  # measured 0.68 and -0.68
-        assert np.median(got[variant][0]) < 0.8, (variant, np.median(got[variant][0]))
+    for frame, flip in ((2, "R flipped"), (4, "G flipped")):
+        face.ewrinkles_face.strength = 1.0
+        scene.frame_set(frame)
+        def render(name, frame=frame):
+            return render_small(scene, tmp_path / f"{frame}_{name}.exr", size=256, samples=1)
+
+        got = compare(render, scene, face, 1024)
+        cos = got["map"][0]
+        print(f"ICT frame {frame}: {len(cos)} pixels, median cos {np.median(cos):.4f}, "
+              + ", ".join(f"{v} {np.median(got[v][0]):.3f}" for v in ("R flipped", "G flipped")))
+        assert len(cos) > 500, (frame, len(cos))
+        assert np.median(cos) > 0.95, (frame, np.median(cos))  # measured 0.999
+        assert np.median(got[flip][0]) < 0.8, (frame, flip, np.median(got[flip][0]))
