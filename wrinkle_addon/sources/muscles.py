@@ -11,12 +11,13 @@ from ..ui import muscles as muscles_ui
 
 
 class _Static:
-    __slots__ = ("plan", "footprint", "refs", "n_refs", "names", "uids")
+    __slots__ = ("plan", "footprint", "refs", "n_refs", "names", "uids", "params")
 
     def __init__(self, plan, refs, n_refs, muscles, marks):
         self.plan, self.footprint, self.refs, self.n_refs = plan, plan.footprint, refs, n_refs
         self.names = [m.name for m in muscles]
         self.uids = frozenset(m.session_uid for m in muscles + marks)
+        self.params = {m.session_uid: objects.parameters(m) for m in muscles}
 
 
 class _Contraction:
@@ -65,13 +66,25 @@ class MuscleSource(WrinkleSource):
         return _Static(plan, refs, len(face.ewrinkles_face.muscles), muscles, marks)
 
     def unchanged(self, face, static, changes, in_scene):
-        # Muscles are placed in the face's space: a moved face, or any update of a muscle
-        # (moved, edited, a parameter set: its contraction alone cannot be told apart),
-        # needs the signatures checked, and so does a muscle deleted, unlinked, added or
-        # removed from the list.  The face's own geometry updates every frame.
+        # Muscles are placed in the face's space: a moved face, or a muscle or landmark
+        # moved or edited (Blender flags its transform or geometry), needs the signatures
+        # checked, and so does a muscle deleted, unlinked, added or removed from the list.
+        # The face's own geometry updates every frame.  A muscle updated otherwise had a
+        # property set (an animated contraction does that on every frame): then only its
+        # parameters are compared, about 1 us each against 9 us for a whole signature.
         moved = changes.get(face.session_uid, (False, False))[0]
-        return (not moved and not (static.uids & changes.keys()) and static.uids <= in_scene
-                and len(face.ewrinkles_face.muscles) == static.n_refs)
+        if moved or not static.uids <= in_scene or len(face.ewrinkles_face.muscles) != static.n_refs:
+            return False
+        touched = static.uids & changes.keys()
+        if any(changes[uid][0] or changes[uid][1] for uid in touched):
+            return False
+        refs = face.ewrinkles_face.muscles
+        for i in static.refs:
+            ob = refs[i].object
+            uid = ob.session_uid if ob is not None else None
+            if uid not in static.params or (uid in touched and objects.parameters(ob) != static.params[uid]):
+                return False
+        return True
 
     def _contraction(self, face, static):
         refs = face.ewrinkles_face.muscles

@@ -65,20 +65,23 @@ def matrix_key(ob):
     return tuple(map(tuple, ob.matrix_world))
 
 
-def signature(muscle_ob):
-    """Everything static about a muscle, to detect when the cached plan is stale.
-
-    Checked for every muscle on every frame, so it reads the raw inputs of
-    :func:`world_points` (matrix and local points) rather than computing them."""
+def parameters(muscle_ob):
+    """A muscle's static parameters (everything but its placement and its contraction)."""
     s = muscle_ob.ewrinkles_muscle
+    return (
+        muscle_ob.name, s.kind, s.radius, s.angle, s.angle_c, s.length, s.width, s.width_c, s.depth,
+        s.back_reach, s.lambda_w, s.n_wrinkles, s.k0, s.alpha, s.pull, s.wrinkles_only, s.fade_ends,
+    )
+
+
+def signature(muscle_ob):
+    """Everything static about a muscle, to detect when the cached plan is stale: its
+    placement (the raw inputs of :func:`world_points`, matrix and local points, rather than
+    the points computed) and its :func:`parameters`."""
     me = muscle_ob.data
     co = np.empty(len(me.vertices) * 3, dtype=np.float32)
     me.attributes["position"].data.foreach_get("vector", co)
-    return (
-        muscle_ob.name, s.kind, matrix_key(muscle_ob), co.tobytes(),
-        s.radius, s.angle, s.angle_c, s.length, s.width, s.width_c, s.depth, s.back_reach, s.lambda_w,
-        s.n_wrinkles, s.k0, s.alpha, s.pull, s.wrinkles_only, s.fade_ends,
-    )
+    return (matrix_key(muscle_ob), co.tobytes()) + parameters(muscle_ob)
 
 
 def muscle_collection(scene):
