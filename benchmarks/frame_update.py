@@ -399,12 +399,17 @@ class Bench:
         return times
 
     # -- configurations ----------------------------------------------------------
-    def handler(self, on):
+    @staticmethod
+    def _hook(fn, on):
         handlers = bpy.app.handlers.frame_change_post
-        if on and pipeline.on_frame_change_post not in handlers:
-            handlers.append(pipeline.on_frame_change_post)
-        while not on and pipeline.on_frame_change_post in handlers:
-            handlers.remove(pipeline.on_frame_change_post)
+        if on and fn not in handlers:
+            handlers.append(fn)
+        while not on and fn in handlers:
+            handlers.remove(fn)
+
+    def handler(self, on):
+        """The add-on's frame handler in or out."""
+        self._hook(pipeline.on_frame_change_post, on)
 
     def set_pulling(self, pulling):
         """Every muscle pulling (``wrinkles_only`` off) or none (on).  Call with the stage
@@ -416,11 +421,7 @@ class Bench:
 
     def floor_handler(self, on):
         """The ``floor`` configuration's handler in or out (see the module doc)."""
-        handlers = bpy.app.handlers.frame_change_post
-        if on and self._floor not in handlers:
-            handlers.append(self._floor)
-        while not on and self._floor in handlers:
-            handlers.remove(self._floor)
+        self._hook(self._floor, on)
 
     def _floor(self, scene, depsgraph):
         """The bare minimum of a NumPy stage: read the skin the Wrinkles modifier stored,
