@@ -102,14 +102,25 @@ CONVERGENCE = 0.61  # the Frontalis' line of convergence, as a fraction of the f
 SHEET_LENGTH = 1.5  # a sheet's Ls over its attachment-insertion distance: the pull fades below the brows
 
 
+def _forehead(lm):
+    """The Frontalis sheets' insertion and attachment heights (z) from the (x, z) landmarks
+    ``lm``: the insertion on the top of the brow's arch, the attachment on the line of
+    convergence (see :func:`layout`)."""
+    g, bo, hair = lm["glabella"], lm["brow_outer_L"], lm["hairline_center"]
+    insert_z = g[1] + 0.5 * (bo[1] - g[1]) + 0.12 * abs(bo[0] - g[0])  # brow_z(0.5) in layout
+    return insert_z, insert_z + CONVERGENCE * (hair[1] - insert_z)
+
+
+def _front(landmarks):
+    return {k: np.asarray(v, float)[[0, 2]] for k, v in landmarks.items()}
+
+
 def sheet_reach(landmarks):
     """How far the Frontalis sheets reach behind their attachment line (up to the hairline),
     in the landmarks' units; ``build_muscle_set`` divides it by the sheets' length Ls."""
-    lm = {k: np.asarray(v, float)[[0, 2]] for k, v in landmarks.items()}
-    g, bo, hair = lm["glabella"], lm["brow_outer_L"], lm["hairline_center"]
-    bw = abs(bo[0] - g[0])
-    insert_z = g[1] + 0.5 * (bo[1] - g[1]) + 0.12 * bw + 0.08 * (hair[1] - g[1])
-    return (1.0 - CONVERGENCE) * (hair[1] - insert_z)
+    lm = _front(landmarks)
+    _insert_z, attach_z = _forehead(lm)
+    return lm["hairline_center"][1] - attach_z
 
 
 def layout(landmarks):
@@ -119,10 +130,10 @@ def layout(landmarks):
     (n, 2) array of (x, z): ``[m_A, m_I]`` for linear muscles and
     ``[m_A1, m_A2, m_I2, m_I1]`` for sheets.  Side ``'L'`` is +X.
     """
-    lm = {k: np.asarray(v, float)[[0, 2]] for k, v in landmarks.items()}
+    lm = _front(landmarks)
     g, bo, eye = lm["glabella"], lm["brow_outer_L"], lm["eye_L"]
     nose, mouth, chin = lm["nose_tip"], lm["mouth_corner_L"], lm["chin"]
-    hair, cheek = lm["hairline_center"], lm["cheekbone_L"]
+    cheek = lm["cheekbone_L"]
     bw = abs(bo[0] - g[0])  # half brow width
     sign = 1.0 if bo[0] >= g[0] else -1.0
 
@@ -142,8 +153,7 @@ def layout(landmarks):
     # is 1.5 D wide with h_c = D/4: the smoothstep ramps of neighbours (and of the two
     # inner sheets at the midline) coincide exactly, so their pulls add up to a uniform
     # lift and their furrows keep one depth across the borders.
-    insert_z = brow_z(0.5) + 0.08 * (hair[1] - g[1])  # just above the brow hairs
-    attach_z = insert_z + CONVERGENCE * (hair[1] - insert_z)
+    insert_z, attach_z = _forehead(lm)
 
     def sheet(i):
         c0, c1 = (i - 0.25) / 3.0, (i + 1.25) / 3.0
