@@ -31,7 +31,7 @@ MUSCLES = (
     ("FRONTALIS_INNER", "Frontalis Inner", "SHEET"),
     ("FRONTALIS_MAJOR", "Frontalis Major", "SHEET"),
     ("FRONTALIS_OUTER", "Frontalis Outer", "SHEET"),
-    ("CORRUGATOR", "Corrugator Supercilii", "LINEAR"),
+    ("CORRUGATOR", "Corrugator Supercilii", "SHEET"),
     ("NASALIS", "Nasalis", "LINEAR"),
     ("ZYGOMATICUS_MINOR", "Zygomaticus Minor", "LINEAR"),
     ("ZYGOMATICUS_MAJOR", "Zygomaticus Major", "LINEAR"),
@@ -65,7 +65,7 @@ ROLE_PARAMS = {
     "FRONTALIS_OUTER": {"lambda_w": 0.0, "n_wrinkles": 6, "pull": 0.18},
     # frown lines ("the elevens") and bunny lines are deep for their spacing
     # a wide fan, so the furrows near the glabella run 10-20 mm up and down
-    "CORRUGATOR": {"lambda_w": 0.15, "n_wrinkles": 3, "angle": 45.0, "angle_c": 20.0, "depth_factor": 1.0},
+    "CORRUGATOR": {"lambda_w": 0.15, "n_wrinkles": 3, "depth_factor": 1.0},
     "NASALIS": {"lambda_w": 0.3, "n_wrinkles": 3, "angle": 30.0, "depth_factor": 0.4},
     "ZYGOMATICUS_MINOR": {"lambda_w": 0.5, "n_wrinkles": 2},
     # the mouth muscles end at the mouth corner: a short reach and a narrow cone keep
@@ -98,6 +98,7 @@ def estimate_landmarks(bbox_min, bbox_max):
     }
 
 
+FOREHEAD = ("FRONTALIS_INNER", "FRONTALIS_MAJOR", "FRONTALIS_OUTER")  # one phase, one convergence
 CONVERGENCE = 0.61  # the Frontalis' line of convergence, as a fraction of the forehead's height
 SHEET_LENGTH = 1.5  # a sheet's Ls over its attachment-insertion distance: the pull fades below the brows
 
@@ -166,7 +167,11 @@ def layout(landmarks):
         "FRONTALIS_MAJOR": sheet(1),
         "FRONTALIS_OUTER": sheet(2),
         # horizontal fibres: the frown lines, across them, run vertically
-        "CORRUGATOR": [(x(0.02), g[1] - 0.05 * (g[1] - ey)), (x(0.45), g[1] - 0.05 * (g[1] - ey))],
+        # a sheet from the midline to the middle of the brow, its fibres horizontal: it draws
+        # the brows' heads together evenly over its height, so the frown lines ("the
+        # elevens") run straight up and down
+        "CORRUGATOR": [(x(0.02), g[1] + 0.9 * (g[1] - ey)), (x(0.02), g[1] - 0.4 * (g[1] - ey)),
+                       (x(0.45), g[1] - 0.4 * (g[1] - ey)), (x(0.45), g[1] + 0.9 * (g[1] - ey))],
         "NASALIS": [(x(0.30), nose[1] + 0.25 * (ey - nose[1])), (x(0.06), ey - 0.05 * (ey - nose[1]))],
         "ZYGOMATICUS_MINOR": [
             (cheek[0] - sign * 0.25 * bw, cheek[1] - 0.1 * (ey - nose[1])),

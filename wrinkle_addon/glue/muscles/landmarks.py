@@ -108,9 +108,10 @@ def build_muscle_set(context, face, landmarks):
             depth = sum(p.y for p in local) / len(local)
             local = [Vector((p.x, depth, p.z)) for p in local]
         placed.append((role, side, kind, [mw @ p for p in local]))
-    # The sheets share one length Ls and one reach behind their attachment line, so eq. 7
+    # The Frontalis sheets share one length Ls and one reach behind their attachment line, so eq. 7
     # puts their furrows in phase and a furrow crosses the forehead (presets.layout).
-    spans = [((w[2] + w[3]) / 2 - (w[0] + w[1]) / 2).length for _r, _s, k, w in placed if k == "SHEET"]
+    spans = [((w[2] + w[3]) / 2 - (w[0] + w[1]) / 2).length
+             for r, _s, _k, w in placed if r in presets.FOREHEAD]
     sheet_length = presets.SHEET_LENGTH * max(spans) if spans else None
     back_reach = (presets.sheet_reach(landmarks) * muscle_objects.face_scale(face) / sheet_length
                   if sheet_length else 0.0)
@@ -119,7 +120,7 @@ def build_muscle_set(context, face, landmarks):
     made = []
     for role, side, kind, world in placed:
         params = dict(presets.ROLE_PARAMS.get(role, {}))
-        if kind == "SHEET":
+        if role in presets.FOREHEAD:
             params["length"] = sheet_length
             params["back_reach"] = max(back_reach, 0.0)
         for key in ("angle", "angle_c"):
