@@ -15,8 +15,9 @@ the left mirrored about the glabella's x):
 * **eyelid**: centred on the eye; half-width 0.32 of the half brow width (glabella to outer
   brow, about 50 mm on an adult, so 16 mm: the palpebral fissure's half width, 14-15 mm,
   to the eye's corners, so that crow's feet, which start at the outer corner, stay free;
-  the margin ramp then reaches 22 mm); upwards 0.8 of the eye-to-glabella height (the
-  upper lid and its fold stop below the brow), downwards 0.6 of it (the lower lid);
+  the margin ramp then reaches 22 mm); upwards the whole eye-to-glabella height (the upper
+  lid, its fold and the skin up to the brow, which does not fold when the brows move),
+  downwards 0.6 of it (the lower lid);
 * **lip**: centred on the mouth line between the corners; half-width 1.05 of the
   corner-to-midline distance; upwards 0.4 of the mouth-to-nose-tip height (the upper
   vermilion, not the philtrum above it), downwards 0.3 of the mouth-to-chin height.
@@ -30,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-EYELID = {"half_width": 0.32, "up": 0.8, "down": 0.6}
+EYELID = {"half_width": 0.32, "up": 1.0, "down": 0.6}
 LIP = {"half_width": 1.05, "up": 0.4, "down": 0.3}
 MARGIN = 0.35  # the keep-out ramp, in units of the ellipse's own radius
 
