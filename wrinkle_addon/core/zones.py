@@ -18,7 +18,7 @@ the left mirrored about the glabella's x):
   the margin ramp then reaches 22 mm); upwards the whole eye-to-glabella height (the upper
   lid, its fold and the skin up to the brow, which does not fold when the brows move),
   downwards 0.6 of it (the lower lid);
-* **lip**: centred on the mouth line between the corners; half-width 1.05 of the
+* **lip**: centred on the mouth line between the corners; half-width the
   corner-to-midline distance; upwards 0.4 of the mouth-to-nose-tip height (the upper
   vermilion, not the philtrum above it), downwards 0.3 of the mouth-to-chin height.
 
@@ -31,16 +31,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-EYELID = {"half_width": 0.32, "up": 1.0, "down": 0.6}
-LIP = {"half_width": 1.05, "up": 0.4, "down": 0.3}
-MARGIN = 0.35  # the keep-out ramp, in units of the ellipse's own radius
+# each zone's ``margin``: its keep-out ramp, in units of the ellipse's own radius; the lips'
+# is short, so the nasolabial fold beside the mouth corner keeps its depth
+EYELID = {"half_width": 0.32, "up": 1.0, "down": 0.6, "margin": 0.35}
+LIP = {"half_width": 1.0, "up": 0.4, "down": 0.3, "margin": 0.15}
 
 
 @dataclass
 class Zones:
     eyelid: np.ndarray  # (N,) bool: inside an eyelid zone (either side)
     lip: np.ndarray  # (N,) bool: inside the lip zone
-    radius: np.ndarray  # (N,) float64: elliptic radius to the nearest zone (<= 1 inside)
+    eyelid_radius: np.ndarray  # (N,) float64: elliptic radius to the nearer eyelid zone (<= 1 inside)
+    lip_radius: np.ndarray  # (N,) float64: elliptic radius to the lip zone (<= 1 inside)
 
     @property
     def inside(self):
@@ -77,7 +79,7 @@ def face_zones(rest, landmarks):
     hw = abs(mouth[0] - g[0])
     lip_r = _radius(p, c, LIP["half_width"] * hw, LIP["up"] * max(nose[2] - mouth[2], 0.0),
                     LIP["down"] * max(mouth[2] - chin[2], 0.0), bw)
-    return Zones(eyelid=eyelid_r <= 1.0, lip=lip_r <= 1.0, radius=np.minimum(eyelid_r, lip_r))
+    return Zones(eyelid=eyelid_r <= 1.0, lip=lip_r <= 1.0, eyelid_radius=eyelid_r, lip_radius=lip_r)
 
 
 def smoothstep(t):
@@ -86,8 +88,10 @@ def smoothstep(t):
     return t * t * (3.0 - 2.0 * t)
 
 
-def keep_out(rest, landmarks, margin=MARGIN):
+def keep_out(rest, landmarks):
     """Per-point weight (N,) float32: 0 inside the eyelid and lip zones, rising with a C¹
-    smoothstep to 1 at ``margin`` (in units of the zone's radius) outside them."""
-    r = face_zones(rest, landmarks).radius
-    return smoothstep((r - 1.0) / max(margin, 1e-9)).astype(np.float32)
+    smoothstep to 1 at each zone's ``margin`` (in units of its radius) outside it."""
+    z = face_zones(rest, landmarks)
+    lid = smoothstep((z.eyelid_radius - 1.0) / EYELID["margin"])
+    lip = smoothstep((z.lip_radius - 1.0) / LIP["margin"])
+    return (lid * lip).astype(np.float32)

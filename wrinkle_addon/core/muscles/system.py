@@ -72,17 +72,24 @@ class Plan:
     smooth_size: int = 0
 
 
+# A(eps) smoothing cells, in half cycles u: (along the fibre, across it).  A row's splat and
+# read back together span two cells each way: +-u along the fibre, across the furrows, so
+# the sequence of furrows keeps its shape; +-2u across the fibre, along each furrow, whose
+# fold is long and whose depth changes slowly along it (a scan's irregular edges made lumps)
+CELL = (0.5, 1.0)
+
+
 def _smoothing(fields, keep):
-    """The grid on which each muscle's amplitude A(eps) is smoothed: cells of one half cycle
-    u in the muscle's plane (``MuscleField.coords``); each kept row splats into and reads
-    back from its 4 surrounding cells with bilinear weights.  Returns (cells (R, 4),
+    """The grid on which each muscle's amplitude A(eps) is smoothed: cells of ``CELL`` half
+    cycles u in the muscle's plane (``MuscleField.coords``); each kept row splats into and
+    reads back from its 4 surrounding cells with bilinear weights.  Returns (cells (R, 4),
     weights (R, 4) float32, number of cells, per-cell weight totals)."""
     cells, weights, start = [], [], 0
     for f in fields:
         c = np.asarray(f.coords, np.float64).reshape(-1, 2)
         if len(c) == 0:
             continue
-        g = (c - c.min(axis=0)) / max(f.half_cycle, 1e-12)
+        g = (c - c.min(axis=0)) / (np.array(CELL) * max(f.half_cycle, 1e-12))
         i = np.floor(g).astype(np.int64)
         t = g - i
         nz = int(i[:, 1].max()) + 2
