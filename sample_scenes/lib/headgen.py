@@ -1,17 +1,19 @@
 """Procedural human head for demos, tests and benchmarks. Pure NumPy, no bpy.
 
 Conventions: metres, Z up, the face looks toward -Y, the character's left is +X.
-The chin is near z = 0.02 and the crown at z = 0.23; the skull is 0.15 m wide.
+The chin is near z = 0.02 and the crown at z = 0.223; the skull is 0.15 m wide
+and 0.19 m long from the glabella to the back of the head.
 
 How it is built
 ---------------
 * The shape is an implicit function ``head_field(p)`` (negative inside, close to
   a signed distance): smoothly blended primitives (a superellipsoid cranium,
-  ellipsoids for the mid-face and mouth, capsules for the mandible and neck,
-  spheres for the eyeballs under closed lids) minus a relief displaced along
-  the normal: Gaussians, ridges and grooves for the brow ridge, eye sockets,
-  lid lines, nose (dorsum, tip, alae), cheekbones, nasolabial folds, philtrum,
-  lips and mouth line, chin, and the ears.
+  ellipsoids for the mid-face, the mouth and the buccal pads, capsules for the
+  mandible and neck, spheres for the eyeballs between open lids) minus a relief
+  displaced along the normal: Gaussians, ridges and grooves for the brow ridge,
+  eye sockets, lids, nose (dorsum, tip, alae, nostrils either side of the
+  columella), cheekbones, soft nasolabial folds, philtrum, lips (the corners
+  tucked in beside the modiolus) and mouth line, chin, and the ears.
 * Every vertex is the root of the field along a ray. Above the throat the rays
   leave ``ORIGIN`` (the head is star-shaped from there; ``tests`` checks it);
   the neck is sampled by level rays from the same vertical axis, so the open
@@ -157,32 +159,42 @@ def _nose_relief(x, z, detail):
     u = np.hypot((c * du + s * dv) / 0.0088, (-s * du + c * dv) / 0.0058)
     ala = 0.0092 * np.exp(-0.5 * (u / 0.62) ** 3) * _smoothstep(0.0660, 0.0745, z)
     crease = 0.0006 * _groove(u - 1.05, 0.12 * 0.0067, detail) * _smoothstep(0.006, 0.012, ax)
-    return _smax(body, ala, 0.008) - crease
+    h = _smax(body, ala, 0.008)
+    # Nostrils: on the underside, between the columella and each ala, the surface
+    # sinks up into the nose (a share of the height is taken away, so the lip under
+    # them is untouched); the columella between them stays whole.
+    c, s = np.cos(0.35), np.sin(0.35)  # teardrops, leaning in toward the tip
+    du, dv = ax - 0.0072, z - 0.0726
+    e = ((c * du + s * dv) / 0.0040) ** 2 + ((-s * du + c * dv) / 0.0024) ** 2
+    nostril = np.exp(-0.5 * e * e)
+    return h * (1.0 - 0.7 * nostril) - crease
 
 
 def _mouth_relief(x, z, detail):
     """Lips (vermilion border, cupid's bow), philtrum, mouth line and chin as a
     height (m) over (x, z)."""
     ax = _soft_abs(x)
-    s = np.clip(ax / 0.0225, 0.0, 1.6)  # 1 at the mouth corners (|x| = 25 mm)
+    s = np.clip(ax / 0.0215, 0.0, 1.6)  # 1 where the lips end, 2.5 mm inside the corners
     z_m = 0.0478 - 0.0010 * s * s - 0.0003 * np.exp(-0.5 * (x / 0.0030) ** 2)  # mouth line
     # Vermilion borders: the cupid's bow peaks at x = +-5.5 mm over a dip on the
     # midline; both borders run down to the corners.
     bow = 0.0011 * np.exp(-0.5 * ((ax - 0.0058) / 0.0030) ** 2) - 0.0005 * np.exp(-0.5 * (x / 0.0022) ** 2)
-    z_ub = z_m + (0.0074 + bow) * np.clip(1.0 - s ** 2.2, 0.0, None) ** 0.55
-    z_lb = z_m - 0.0095 * np.clip(1.0 - s ** 2.6, 0.0, None) ** 0.6
-    w = max(0.0005, 0.6 * detail)
+    z_ub = z_m + (0.0080 + bow) * np.clip(1.0 - s ** 2.2, 0.0, None) ** 0.55
+    z_lb = z_m - 0.0100 * np.clip(1.0 - s ** 2.6, 0.0, None) ** 0.6
+    w = max(0.0008, 0.9 * detail)
     # Upper lip: skin sloping forward from the nose to the border ...
     skin = 0.0012 * _smoothstep(0.0700, z_ub - 0.002, z) * np.exp(-((x / 0.024) ** 4))
     # ... and the vermilion, a roll that stands proud of it, pouting a little.
     u = np.clip((z - z_m) / np.maximum(z_ub - z_m, 1e-4), 0.0, 1.0)
     inside_up = _smoothstep(z_ub + w, z_ub - w, z) * _smoothstep(z_m - w, z_m + w, z)
-    v_up = (0.0024 * np.sin(np.pi * (0.25 + 0.75 * u)) ** 0.7 + 0.0005) * inside_up
+    v_up = (0.0032 * np.sin(np.pi * (0.25 + 0.75 * u)) ** 0.7 + 0.0006) * inside_up
     # Lower lip: a fuller roll under the mouth line, bounded by its border.
     u2 = np.clip((z_m - z) / np.maximum(z_m - z_lb, 1e-4), 0.0, 1.0)
     inside_lo = _smoothstep(z_lb - w, z_lb + w, z) * _smoothstep(z_m + w, z_m - w, z)
-    v_lo = (0.0030 * np.sin(np.pi * (0.15 + 0.85 * u2)) ** 0.6 + 0.0005) * inside_lo
-    fade = np.clip(1.0 - s ** 2, 0.0, None) ** 0.5
+    v_lo = (0.0036 * np.sin(np.pi * (0.15 + 0.85 * u2)) ** 0.6 + 0.0006) * inside_lo
+    # The lower lip is two soft lobes either side of the midline.
+    v_lo *= 1.0 + 0.15 * np.exp(-0.5 * ((ax - 0.009) / 0.006) ** 2)
+    fade = np.clip(1.0 - s ** 2, 0.0, None) ** 0.7
     r = skin + (v_up + v_lo) * fade
     # The white roll along the upper border.
     r += 0.0004 * _groove(z - z_ub, 0.0005, detail) * fade
@@ -192,9 +204,11 @@ def _mouth_relief(x, z, detail):
     r += t * (0.0009 * np.exp(-0.5 * ((ax - colx) / 0.0014) ** 2)
               - 0.0004 * np.exp(-0.5 * (x / 0.0018) ** 2))
     # Mouth line (the lips meet) and the corners of the mouth (modiolus).
-    r -= 0.0011 * _groove(z - z_m, 0.0006, detail) * np.exp(-((x / 0.026) ** 6))
-    r -= 0.0016 * np.exp(-0.5 * (((ax - 0.0237) / 0.0028) ** 2 + ((z - 0.0470) / 0.0035) ** 2))
-    r += 0.0012 * np.exp(-0.5 * (((ax - 0.0275) / 0.0045) ** 2 + ((z - 0.0480) / 0.0070) ** 2))
+    # The line fades before the corners, which are pits tucked in behind the lips;
+    # the modiolus is a soft knot of muscle just outside each corner.
+    r -= 0.0011 * _groove(z - z_m, 0.0006, detail) * np.exp(-((x / 0.0225) ** 4))
+    r -= 0.0036 * np.exp(-0.5 * (((ax - 0.0235) / 0.0036) ** 2 + ((z - 0.0470) / 0.0045) ** 2))
+    r += 0.0010 * np.exp(-0.5 * (((ax - 0.0280) / 0.0055) ** 2 + ((z - 0.0480) / 0.0090) ** 2))
     # Mentolabial sulcus and the chin.
     r -= 0.0028 * np.exp(-0.5 * ((z - 0.0330) / 0.0040) ** 2) * np.exp(-0.5 * (x / 0.016) ** 2)
     r += 0.0052 * np.exp(-0.5 * ((z - 0.0215) / 0.0085) ** 2) * np.exp(-0.5 * (x / 0.012) ** 2)
@@ -234,8 +248,8 @@ def _face_relief(p, m, detail):
     normal = np.array([a[1] - b[1], b[0] - a[0]]) / np.hypot(a[1] - b[1], b[0] - a[0])
     side = (ax - a[0]) * normal[0] + (z - a[1]) * normal[1]  # > 0 on the cheek side
     taper = np.sin(np.pi * np.clip(0.15 + 0.85 * t_fold, 0.0, 1.0)) ** 1.5
-    r -= 0.0008 * _groove(d_fold, 0.0014, detail) * taper
-    r += 0.0020 * np.exp(-0.5 * (d_fold / 0.0065) ** 2) * taper * _smoothstep(-0.001, 0.004, side)
+    r -= 0.0004 * _groove(d_fold, 0.0040, detail) * taper
+    r += 0.0016 * np.exp(-0.5 * (d_fold / 0.0085) ** 2) * taper * _smoothstep(-0.004, 0.008, side)
     r += _mouth_relief(x, z, detail)
     return r
 
@@ -253,10 +267,13 @@ def _ear_relief(p, ax, detail):
     # Outline: an egg, narrower toward the lobe.
     half = 1.0 - 0.28 * _smoothstep(0.2, -1.0, v)
     e = np.hypot((u - 0.05) / half, v)
-    outline = _smoothstep(1.0, 0.80, e)
+    outline = _smoothstep(1.04, 0.68, e)  # a rounded rim, several rays wide
     attach = _smoothstep(-1.0, -0.55, u)  # fades into the head in front
-    lift = (0.004 + 0.0075 * _smoothstep(-0.6, 1.0, u)) * attach
-    g = max(0.06, detail / 0.0165)
+    # Standing off the head most at the back of the helix; the bottom of the lobe
+    # sinks back into the cheek, so its lower edge is rounded, not a point.
+    lobe_edge = 0.3 + 0.7 * _smoothstep(-1.15, -0.8, v)
+    lift = (0.0065 + 0.0060 * _smoothstep(-0.6, 1.0, u)) * attach * lobe_edge
+    g = max(0.10, detail / 0.0165)
     rim = np.exp(-0.5 * ((e - 0.83) / g) ** 2)  # helix
     scapha = np.exp(-0.5 * ((e - 0.66) / g) ** 2) * _smoothstep(-0.3, 0.2, u + v)
     # Antihelix: a ridge around the concha, open toward the front.
@@ -307,7 +324,7 @@ def _eyes(m, detail):
     corner = np.clip(4.0 * s * (1.0 - s), 0.0, 1.0) ** 0.25
     # Toward the corners the lids part more gently, so the rays from ORIGIN, which
     # cross the outer corner obliquely, still meet one surface.
-    soft = w * (1.0 + 3.0 * (1.0 - corner))
+    soft = w * (1.0 + 10.0 * (1.0 - corner))
     thick = (0.0012 + 0.0014 * corner) - 0.0060 * (0.3 + 0.7 * corner) * _smoothstep(-0.2 * w, soft, o)
     # The upper lid's skin folds up under the brow at the lid crease.
     zc = 0.1165 + 0.0080 - 0.0030 * (2.0 * s - 1.0) ** 2
@@ -328,14 +345,20 @@ def head_field(p, detail=0.0):
     x, y, z = p[:, 0], p[:, 1], p[:, 2]
     ax = m[:, 0]
 
-    # Cranium: an egg, narrower at the forehead than over the parietals.
+    # Cranium: an egg, narrower at the forehead than over the parietals, and
+    # shorter behind its middle than in front (19 cm from the glabella to the
+    # back of the head): y behind the middle is stretched before evaluating it.
     widen = 1.0 + 0.07 * np.clip(y / 0.1, -1.0, 1.0)
-    pc = np.stack([x / widen, y, z], axis=1)
+    yc = np.where(y > 0.014, 0.014 + (y - 0.014) * (0.099 / 0.082), y)
+    pc = np.stack([x / widen, yc, z], axis=1)
     f = _superellipsoid(pc, (0.0, 0.014, 0.133), (0.074, 0.099, 0.090), 2.4)
 
     # Mid-face (maxilla, cheeks) and the mouth region.
     f = _smin(f, _ellipsoid(p, (0.0, -0.026, 0.088), (0.067, 0.068, 0.052)), 0.02)
-    f = _smin(f, _ellipsoid(p, (0.0, -0.042, 0.052), (0.044, 0.057, 0.042)), 0.035)
+    f = _smin(f, _ellipsoid(p, (0.0, -0.042, 0.052), (0.038, 0.057, 0.042)), 0.035)
+    # The buccal pad: fills the cheek between the mouth, the cheekbone and the jaw,
+    # so no valley runs from the mouth corner down to the jaw.
+    f = _smin(f, _ellipsoid(m, (0.026, -0.044, 0.058), (0.019, 0.038, 0.028)), 0.02)
 
     # Mandible: chin bar, bodies to the jaw angles, rami up to the ears.
     jaw = _round_cone(m, (0.0, -0.068, 0.023), (0.010, -0.066, 0.024), 0.014, 0.014)
@@ -343,7 +366,7 @@ def head_field(p, detail=0.0):
                                  0.014, 0.012), 0.01)
     jaw = _smin(jaw, _round_cone(m, (0.046, -0.006, 0.034), (0.052, 0.010, 0.085),
                                  0.012, 0.012), 0.01)
-    f = _smin(f, jaw, 0.025)
+    f = _smin(f, jaw, 0.03)
 
     # Neck.
     f = _smin(f, _round_cone(p, *_NECK), 0.028)
@@ -422,13 +445,13 @@ def _project(starts, dirs, field, length=0.3, step=2.5e-4):
 def _warp(u, lo, hi, dense_lo, dense_hi, blend, sparse, ears=0.0):
     """Map uniform samples ``u`` in [0, 1] to [lo, hi], dense inside
     [dense_lo, dense_hi] and ``sparse`` times as dense outside; with ``ears``,
-    that density over the ears (azimuths of 75-105 degrees either side)."""
+    that density over the ears (azimuths of 75-120 degrees either side)."""
     a = np.linspace(lo, hi, 4097)
     w = _smoothstep(dense_lo - blend, dense_lo, a) * (1.0 - _smoothstep(dense_hi, dense_hi + blend, a))
     rho = sparse + (1.0 - sparse) * w
     if ears:
         e = _smoothstep(np.radians(62), np.radians(78), np.abs(a)) \
-            * _smoothstep(np.radians(118), np.radians(102), np.abs(a))
+            * _smoothstep(np.radians(128), np.radians(114), np.abs(a))
         rho = np.maximum(rho, ears * e)
     cum = np.concatenate([[0.0], np.cumsum(0.5 * (rho[1:] + rho[:-1]) * np.diff(a))])
     return np.interp(u * cum[-1], cum, a)
@@ -447,7 +470,7 @@ def _band_rays(cols, rows, field):
     """Ray origins and directions of the band, neck ring first, row-major."""
     s = np.linspace(-np.pi, np.pi, cols, endpoint=False)
     az0 = _warp((s + np.pi) / (2 * np.pi), -np.pi, np.pi, np.radians(-70), np.radians(70),
-                np.radians(30), 0.25, ears=0.55)
+                np.radians(30), 0.25, ears=0.8)
     az0[0] = -np.pi
     rows_neck = max(3, int(round(0.07 * rows)))
     el = _warp(np.linspace(0.0, 1.0, rows - rows_neck), _EL_LOW, _EL_CAP,
@@ -591,7 +614,7 @@ _FRONT_LANDMARKS = {
     "nose_bridge": (0.0, 0.112),
     "nose_ala_L": (0.0165, 0.0755),
     "cheekbone_L": (0.052, 0.098),
-    "mouth_corner_L": (0.0253, 0.0469),
+    "mouth_corner_L": (0.0243, 0.0469),
     "upper_lip": (0.0, 0.0510),
     "lower_lip": (0.0, 0.0428),
     "chin": (0.0, 0.0215),

@@ -101,6 +101,10 @@ def test_head_proportions(head):
     skull = p[np.abs(p[:, 2] - 0.17) < 0.005]
     assert 0.13 < np.ptp(skull[:, 0]) < 0.17  # skull width above the ears
     assert 0.17 < np.ptp(skull[:, 1]) < 0.22  # glabella to the back of the head
+    # Head length (glabella to opisthocranion) of an adult, 18-20 cm: a longer
+    # cranium dwarfs the face.
+    g = lm["glabella"]
+    assert 0.18 < p[:, 1].max() - g[1] < 0.20
 
 
 def test_head_face_resolution(head):
@@ -338,3 +342,47 @@ def test_head_landmarks_at_the_features(head):
     assert lm["mouth_corner_L"][1] > lm["upper_lip"][1] + 0.006
     # The chin in front of the mentolabial sulcus.
     assert lm["chin"][1] < _profile_y(0.033) - 0.001
+
+
+def _depth_curvature(a, b, n=33):
+    """Second derivative (1/m) of the front surface's depth along the segment a-b
+    in (x, z), seen from the front: > 0 where it is convex, < 0 in a crease."""
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    xz = np.asarray(a, float) + t * (np.asarray(b, float) - np.asarray(a, float))
+    starts = np.column_stack([xz[:, 0], np.full(n, -0.3), xz[:, 1]])
+    y = headgen._project(starts, np.tile([0.0, 1.0, 0.0], (n, 1)), headgen.head_field)[:, 1]
+    ds = np.hypot(*(np.asarray(b, float) - np.asarray(a, float))) / (n - 1)
+    return np.diff(y, 2) / ds ** 2
+
+
+def test_head_nose_has_nostrils():
+    """Under the tip, either side of the columella, the nostrils sink into the nose:
+    behind both the columella and the alae."""
+    columella, nostril, ala = (_profile_y(0.0725, x) for x in (0.0, 0.0075, 0.015))
+    assert nostril > columella + 0.002
+    assert nostril > ala + 0.0015
+
+
+def test_head_mouth_corners_tuck_in(head):
+    """The lips wrap round the teeth: the corners sit well behind the middle of the
+    lips (a flat mouth reads as a slit at three-quarter view), the lips stand proud of
+    the skin above and below them."""
+    lm = head["landmarks"]
+    corner = _profile_y(lm["mouth_corner_L"][2], lm["mouth_corner_L"][0])
+    upper = _profile_y(lm["upper_lip"][2])
+    assert corner > upper + 0.015
+    assert _profile_y(lm["lower_lip"][2]) < _profile_y(0.033) - 0.006
+
+
+def test_head_folds_are_soft():
+    """The nasolabial folds are soft: across them the surface bends with a radius
+    of several millimetres, not a crease. The cheek turns into the side of the jaw
+    gently, so no shading line runs from the mouth to the jaw."""
+    a, b = np.array([0.0205, 0.0720]), np.array([0.0330, 0.0400])  # the fold's line
+    d = b - a
+    normal = np.array([d[1], -d[0]]) / np.hypot(*d)
+    for t in (0.2, 0.35, 0.5):
+        c = a + t * d
+        assert _depth_curvature(c - 0.006 * normal, c + 0.006 * normal).min() > -250, t
+    for z in (0.030, 0.035, 0.040):
+        assert _depth_curvature((0.028, z), (0.050, z)).max() < 300, z
