@@ -114,8 +114,10 @@ def test_ict_geometry_rule_alone(ict):
 
 
 @pytest.mark.xfail(reason="the hairline: a bald head shows none, so the finder puts it at a fixed "
-                   "proportion of the eye distance above the glabella; on the procedural head that lands "
-                   "6.5 mm from the generator's hairline (every other landmark is within 5 mm)",
+                   "proportion of the eye distance above the glabella; the procedural head's brow is flat "
+                   "on the midline, its most forward point (the found glabella) 4 mm above the generator's "
+                   "glabella, and the hairline inherits that: 5.4 mm from the generator's (every other "
+                   "landmark is within 5 mm)",
                    strict=False)
 def test_procedural_head_within_5mm(head):
     found, _method, _message = lf.find_landmarks(head["positions"], head["quads"])
@@ -137,6 +139,96 @@ def test_polygon_tuple_input_gives_the_same(head):
     b = lf.find_landmarks(head["positions"], polys)[0]
     for k in NAMES:
         np.testing.assert_allclose(a[k], b[k])
+
+
+# --------------------------------------------------------------------------
+# Robustness of the geometry rule: the same face with other ears, at another size,
+# turned a little or meshed more coarsely gives the same landmarks.
+# --------------------------------------------------------------------------
+STABLE = 0.004  # metres: how far a landmark may move under a perturbation that leaves the face as it is
+EAR_Z = (0.055, 0.15)  # z span of the procedural head's ears (sample_scenes/lib/headgen.py)
+
+
+def _ears_scaled(pos, factor):
+    """The ears pushed out (factor > 1) or in: the vertices beside and behind the face,
+    beyond the side of the skull, moved in x by ``factor`` times their distance past it."""
+    p = pos.astype(np.float64)
+    ax = np.abs(p[:, 0])
+    skull = 0.055
+    w = np.clip((ax - skull) / 0.01, 0.0, 1.0) * (p[:, 1] > -0.01)
+    w *= np.clip(1.0 - np.abs(p[:, 2] - 0.102) / 0.05, 0.0, 1.0) ** 0.5
+    p[:, 0] = np.sign(p[:, 0]) * (ax + (factor - 1.0) * w * (ax - skull))
+    return p
+
+
+def _ears_cut(pos):
+    """The ears cut off flush with the side of the head."""
+    p = pos.astype(np.float64)
+    ear = (p[:, 1] > -0.005) & (p[:, 2] > EAR_Z[0]) & (p[:, 2] < EAR_Z[1])
+    p[ear, 0] = np.clip(p[ear, 0], -0.074, 0.074)
+    return p
+
+
+def _yaw(degrees):
+    a = np.radians(degrees)
+    return np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+
+
+@pytest.fixture(scope="module")
+def head_found(head):
+    found, method, _m = lf.find_landmarks(head["positions"], head["quads"])
+    assert method == "geometry"
+    return found
+
+
+def _check_stable(found, base, ref, skip_ref=("hairline_center",)):
+    assert set(found) == set(NAMES)
+    moved = {k: round(float(np.linalg.norm(found[k] - base[k])) * 1000, 1) for k in NAMES}
+    assert max(moved.values()) < STABLE * 1000, f"landmarks moved (mm): {moved}"
+    dist = _distances(found, ref)
+    far = {k: round(d * 1000, 1) for k, d in dist.items() if d > TOLERANCE and k not in skip_ref}
+    assert not far, f"landmarks farther than 5 mm from the reference (mm): {far}"
+
+
+@pytest.mark.parametrize("perturb", ["ears 0.8", "ears 1.2", "ears 1.4", "no ears"])
+def test_geometry_rule_does_not_depend_on_the_ears(head, head_found, perturb):
+    if perturb == "no ears":
+        pos = _ears_cut(head["positions"])
+    else:
+        pos = _ears_scaled(head["positions"], float(perturb.split()[1]))
+    assert np.abs(pos - head["positions"]).max() > 0.001  # the ears did change
+    found, method, _m = lf.find_landmarks(pos, head["quads"])
+    assert method == "geometry"
+    _check_stable(found, head_found, head["landmarks"])
+
+
+@pytest.mark.parametrize("factor", [0.9, 1.15])
+def test_geometry_rule_scales_with_the_head(head, head_found, factor):
+    found, method, _m = lf.find_landmarks(head["positions"] * factor, head["quads"])
+    assert method == "geometry"
+    base = {k: v * factor for k, v in head_found.items()}
+    ref = {k: np.asarray(v, np.float64) * factor for k, v in head["landmarks"].items()}
+    _check_stable(found, base, ref)
+
+
+@pytest.mark.parametrize("degrees", [3.0, -3.0])
+def test_geometry_rule_under_a_small_yaw(head, head_found, degrees):
+    rot = _yaw(degrees)
+    found, method, _m = lf.find_landmarks(head["positions"] @ rot.T, head["quads"])
+    assert method == "geometry"
+    base = {k: rot @ v for k, v in head_found.items()}
+    ref = {k: rot @ np.asarray(v, np.float64) for k, v in head["landmarks"].items()}
+    _check_stable(found, base, ref)
+
+
+def test_geometry_rule_on_a_coarser_mesh(head_found):
+    coarse = headgen.make_head(15000)
+    found, method, _m = lf.find_landmarks(coarse["positions"], coarse["quads"])
+    assert method == "geometry"
+    # The glabella of the coarse head is the profile's most forward point over a brow
+    # drawn with fewer rows: 5.6 mm from the generator's, as before the eyes were made
+    # robust, so only its stability is checked.
+    _check_stable(found, head_found, coarse["landmarks"], skip_ref=("hairline_center", "glabella"))
 
 
 def _sphere(n=48):

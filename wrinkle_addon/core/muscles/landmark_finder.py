@@ -19,8 +19,14 @@ the *anchors*, the centres of both eyes and the two mouth corners:
 3. **geometry**, for a closed sculpt: the nose tip is the most forward point; the face is
    read as a depth image seen from the front (the nearest front-facing surface in each
    cell).  The eyes are the sockets, the deepest hollows either side of the nose at the
-   height of the nasal bridge; the mouth line is the deepest point of the midline profile
-   between the lips, and its corners the pits at the ends of the lip line.
+   height of the nasal bridge (on the face: not the concha of an ear, not the background
+   round the silhouette), refined to the lid's bulge in a closed socket.  The search's
+   windows and blurs are sized by the head's width, which the silhouette gives only
+   roughly (it counts the ears): the search is run at sizes from 0.75 to 1.35 times the
+   silhouette's width and the sizes kept are those whose eyes are closest to
+   ``EYES_PER_WIDTH`` of it apart; their eyes are averaged.  The mouth line is the deepest
+   point of the midline profile between the lips, and its corners the pits at the ends of
+   the lip line.
 
 The rest follows from the anchors on every rule, measured on the same depth image with
 ``E`` the distance between the eyes: the nose tip is the most forward point between the
@@ -63,6 +69,8 @@ CANTHUS = 0.22  # the eye's corners either side of its centre
 CHEEK_OUT, CHEEK_DOWN = 0.30, 0.31
 MOUTH_HALF_WIDTH = 0.38
 CHIN_TILT = np.tan(np.radians(45.0))  # the chin's front ends where it turns this far under
+EYES_PER_WIDTH = 0.40  # E over the head's width at the nose (63 mm over about 155 mm)
+FACE_DEPTH = 0.25  # how far the face reaches behind the nose tip, in head widths
 GRID = 220  # depth-image cells along the larger side of the front view
 
 
@@ -306,27 +314,30 @@ def _rig(p, shape_keys, scale):
     return out, hints
 
 
-def _geometry(p, depth, scale):
-    """Rule 3: the nose tip, the eye sockets and the lips of a closed surface."""
-    y = depth.y
-    if not np.isfinite(y).any():
-        raise NotFound("nothing faces the front")
-    cell = depth.cell
-    # The nose tip: the most forward point, standing out of its surroundings.
-    r, c = np.unravel_index(np.nanargmin(y), y.shape)
+def _enclosed(seen):
+    """Cells with seen cells on all four sides along their row and column."""
+    def between(a, axis):
+        ahead = np.maximum.accumulate(a, axis=axis)
+        behind = np.flip(np.maximum.accumulate(np.flip(a, axis), axis=axis), axis)
+        return ahead & behind
+    return between(seen, 0) & between(seen, 1)
+
+
+def _find_eyes(depth, nose, scale):
+    """The two eyes (side -> (3,) point) of the depth image, its windows and blurs sized
+    by ``scale`` (a head's width); the nose tip at row, column ``nose``."""
+    y, cell = depth.y, depth.cell
+    r, c = nose
     nose_x, nose_z = depth.xz(r, c)
-    seen = np.flatnonzero(np.isfinite(y[r]))
-    scale = (seen[-1] - seen[0]) * cell  # the width of the head at the nose
-    if scale <= 0:
-        raise NotFound("no face")
-    around = blur(y, 0.08 * scale / cell)
-    if not np.isfinite(around[r, c]) or around[r, c] - y[r, c] < 0.03 * scale:
-        raise NotFound("no nose stands out of the front")
-    # The eyes: the deepest hollows (relative to a wide blur, holes counting as deep)
-    # either side of the nose, above it.
-    deep_fill = np.where(np.isfinite(y), y, np.nanmax(y))
+    # The deepest hollows (relative to a wide blur, holes counting as deep) either side
+    # of the nose, above it, on the face only: not farther behind the nose tip than the
+    # face reaches (the concha of an ear is a deep hollow too).
+    seen = np.isfinite(y)
+    hole = ~seen & _enclosed(seen)
+    deep_fill = np.where(seen, y, np.nanmax(y))
     hollow = deep_fill - blur(deep_fill, 0.12 * scale / cell)
     hollow = blur(hollow, 0.02 * scale / cell)
+    hollow[~(hole | (seen & (y < y[r, c] + FACE_DEPTH * scale)))] = np.nan
     bulge = blur(y, 0.04 * scale / cell) - y
     rows = depth.rows_between(nose_z + 0.08 * scale, nose_z + 0.45 * scale)
     eyes = {}
@@ -360,6 +371,45 @@ def _geometry(p, depth, scale):
                 ez = depth.z0 + float((w * i2).sum() / w.sum()) * cell
                 ex = depth.x0 + float((w * j2).sum() / w.sum()) * cell
         eyes[side] = np.array([ex, _surface_y(depth, ex, ez), ez])
+    return eyes
+
+
+def _geometry(p, depth, scale):
+    """Rule 3: the nose tip, the eye sockets and the lips of a closed surface."""
+    y = depth.y
+    if not np.isfinite(y).any():
+        raise NotFound("nothing faces the front")
+    cell = depth.cell
+    # The nose tip: the most forward point, standing out of its surroundings.
+    r, c = np.unravel_index(np.nanargmin(y), y.shape)
+    nose_x, nose_z = depth.xz(r, c)
+    seen = np.flatnonzero(np.isfinite(y[r]))
+    scale = (seen[-1] - seen[0]) * cell  # first guess: the width of the head at the nose
+    if scale <= 0:
+        raise NotFound("no face")
+    around = blur(y, 0.08 * scale / cell)
+    if not np.isfinite(around[r, c]) or around[r, c] - y[r, c] < 0.03 * scale:
+        raise NotFound("no nose stands out of the front")
+    # That width counts the ears, whose size and shape vary from head to head, and the
+    # hollows the search finds shift with the size it assumes (a small one settles on the
+    # inner corners).  So the eyes are searched for at a range of sizes around it and the
+    # size kept is the one whose eyes are as far apart as a head's eyes are for its width.
+    tries = []
+    for guess in scale * np.geomspace(0.75, 1.35, 21):  # 21 sizes (3 % apart)
+        try:
+            found = _find_eyes(depth, (r, c), guess)
+        except NotFound:
+            continue
+        miss = abs((found["L"][0] - found["R"][0]) / guess - EYES_PER_WIDTH)
+        tries.append((miss, guess, found))
+    if not tries:
+        raise NotFound("no eye sockets")
+    # The sizes that fit about as well as the best one all count: their mean does not
+    # jump when a small change of the head makes another of them the best.
+    least = min(t[0] for t in tries)
+    good = [t for t in tries if t[0] <= least + 0.02]
+    scale = float(np.mean([t[1] for t in good]))
+    eyes = {k: np.mean([t[2][k] for t in good], axis=0) for k in ("L", "R")}
     sep = eyes["L"][0] - eyes["R"][0]
     if sep < 0.1 * scale or abs(eyes["L"][2] - eyes["R"][2]) > 0.2 * sep:
         raise NotFound("no pair of eye sockets")
