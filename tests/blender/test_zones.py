@@ -65,7 +65,7 @@ def test_baked_map_heights_stop_at_eyelids_and_lips(head, mode):
 def test_moving_a_landmark_moves_the_zones(head):
     face, inside = head
     bpy.context.scene.frame_set(10)
-    eye = bpy.data.objects[f"{landmarks.LANDMARK_PREFIX}{face.name} eye_L"]
+    eye = bpy.data.objects[landmarks.landmark_name(face, "eye_L")]
     old = eye.location.copy()
     try:
         eye.location.z += 0.03  # the eye zone now sits on the forehead

@@ -136,6 +136,13 @@ def normals_at(p, tris, corner_bins):
     return _normalize(np.stack([corner_bins.sum(np.tile(c, 3)) for c in fn]))
 
 
+def smoothstep(t):
+    """``3t² - 2t³`` on [0, 1], clamped: 0 and 1 with zero slope at both ends (C¹).  The
+    ramp of every fall-off, attenuation and keep-out zone."""
+    t = np.clip(t, 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
 def edge_shrinkage(rest_length, length):
     """Edge shrinkage (Zhang et al. 2005, eq. 9): ``tau = (L - |xi - xj|) / L``; zero where
     the rest length is degenerate."""

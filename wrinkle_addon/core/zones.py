@@ -31,6 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .mesh import smoothstep
+
 # each zone's ``margin``: its keep-out ramp, in units of the ellipse's own radius; the lips'
 # is short, so the nasolabial fold beside the mouth corner keeps its depth
 EYELID = {"half_width": 0.32, "up": 1.0, "down": 0.6, "margin": 0.35}
@@ -80,12 +82,6 @@ def face_zones(rest, landmarks):
     lip_r = _radius(p, c, LIP["half_width"] * hw, LIP["up"] * max(nose[2] - mouth[2], 0.0),
                     LIP["down"] * max(mouth[2] - chin[2], 0.0), bw)
     return Zones(eyelid=eyelid_r <= 1.0, lip=lip_r <= 1.0, eyelid_radius=eyelid_r, lip_radius=lip_r)
-
-
-def smoothstep(t):
-    """3t² − 2t³ on [0, 1], clamped: C¹, 0 at t <= 0 and 1 at t >= 1."""
-    t = np.clip(t, 0.0, 1.0)
-    return t * t * (3.0 - 2.0 * t)
 
 
 def keep_out(rest, landmarks):

@@ -76,6 +76,8 @@ class MuscleSource(WrinkleSource):
         if moved or not static.uids <= in_scene or len(face.ewrinkles_face.muscles) != static.n_refs:
             return False
         touched = static.uids & changes.keys()
+        if not touched:
+            return True
         if any(changes[uid][0] or changes[uid][1] for uid in touched):
             return False
         refs = face.ewrinkles_face.muscles

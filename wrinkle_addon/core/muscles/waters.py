@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..mesh import smoothstep
 from . import zhang
 
 LINEAR = 0
@@ -163,12 +164,6 @@ def sheet_frame(m):
         return None
     across = across / al
     return a_c, fibre, across, np.cross(fibre, across), fl
-
-
-def smoothstep(t):
-    """``3t² - 2t³`` on [0, 1], clamped: 0 and 1 with zero slope at both ends (C¹)."""
-    t = np.clip(t, 0.0, 1.0)
-    return t * t * (3.0 - 2.0 * t)
 
 
 def radial_falloff(dist, r_s, r_f, squared=False):

@@ -27,7 +27,10 @@ Equation 8 (zero mean, skin incompressibility) fixes ``d`` in closed form::
 
 import numpy as np
 
-from ..mesh import edge_shrinkage  # noqa: F401  (eq. 9, shared with the other methods)
+from ..mesh import (
+    edge_shrinkage,  # noqa: F401  (eq. 9, shared with the other methods)
+    smoothstep,
+)
 
 _EPS = 1e-12
 
@@ -104,8 +107,7 @@ def attenuation(x, x_c, x_max):
     """
     x = np.asarray(x, dtype=np.float64)
     span = np.maximum(x_max - x_c, _EPS)
-    s = np.clip((x - x_c) / span, 0.0, 1.0)
-    return np.where(x > x_max, 0.0, 1.0 - s * s * (3.0 - 2.0 * s))
+    return np.where(x > x_max, 0.0, 1.0 - smoothstep((x - x_c) / span))
 
 
 def edge_fade(l, start, end, u):

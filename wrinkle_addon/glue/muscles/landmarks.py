@@ -58,16 +58,23 @@ def project_front(face, dg, x, z):
     return loc if ok else None
 
 
+def landmark_name(face, key):
+    """The name of ``face``'s landmark empty ``key``."""
+    return f"{LANDMARK_PREFIX}{face.name} {key}"
+
+
+def _empties(face):
+    """{key: the landmark empty of ``face``, or None}, for every landmark."""
+    return {key: bpy.data.objects.get(landmark_name(face, key)) for key, _l, _d in presets.LANDMARKS}
+
+
 def landmark_positions(face):
     """Face-local landmark positions from the landmark empties, or ``None`` if any is missing."""
-    out = {}
+    empties = _empties(face)
+    if any(ob is None for ob in empties.values()):
+        return None
     inv = face.matrix_world.inverted()
-    for key, _label, _desc in presets.LANDMARKS:
-        ob = bpy.data.objects.get(f"{LANDMARK_PREFIX}{face.name} {key}")
-        if ob is None:
-            return None
-        out[key] = np.array(inv @ ob.matrix_world.translation)
-    return out
+    return {key: np.array(inv @ ob.matrix_world.translation) for key, ob in empties.items()}
 
 
 def keep_out(face, rest):
@@ -80,8 +87,7 @@ def keep_out(face, rest):
 
 def landmark_objects(face):
     """The landmark empties of ``face`` that exist."""
-    found = (bpy.data.objects.get(f"{LANDMARK_PREFIX}{face.name} {key}") for key, _l, _d in presets.LANDMARKS)
-    return [ob for ob in found if ob is not None]
+    return [ob for ob in _empties(face).values() if ob is not None]
 
 
 def build_muscle_set(context, face, landmarks):
@@ -139,7 +145,7 @@ def set_landmarks(context, face, located):
     zones (``core.zones``: eyelids and lips) were built from, and moving one rebuilds both."""
     coll = muscle_objects.muscle_collection(context.scene)
     for key, _label, desc in presets.LANDMARKS:
-        name = f"{LANDMARK_PREFIX}{face.name} {key}"
+        name = landmark_name(face, key)
         ob = bpy.data.objects.get(name)
         if ob is None:
             ob = bpy.data.objects.new(name, None)
