@@ -9,6 +9,7 @@ import pytest
 from tests.blender import scenes
 from wrinkle_addon.core.maps import jimenez as wrinkle_maps
 from wrinkle_addon.core.muscles import waters as core_muscles
+from wrinkle_addon.glue.errors import WrinkleError
 from wrinkle_addon.glue.maps import bake as mapbake
 from wrinkle_addon.glue.muscles import objects as muscle_objects
 
@@ -390,7 +391,7 @@ def test_edit_mode_is_refused_with_a_clear_message():
         before = _images()
         with pytest.raises(RuntimeError, match="Edit Mode"):
             bpy.ops.wrinkle.bake_wrinkle_map(resolution="256")
-        with pytest.raises(mapbake.BakeError, match="Edit Mode"):
+        with pytest.raises(WrinkleError, match="Edit Mode"):
             mapbake.generate_masks(face, 64, "MUSCLES", 0.01)
         assert _images() == before
     finally:

@@ -7,10 +7,12 @@ everywhere, so the panel, the operators and the frame handler agree about a face
 
 
 def active(context):
-    """The face an operator acts on: the active object, or the face a selected muscle
-    belongs to (its parent)."""
+    """The face an operator acts on: the active object, or the face a selected muscle or
+    wrinkle curve belongs to (its parent)."""
     ob = context.active_object
-    if ob is not None and ob.type == "MESH" and ob.ewrinkles_muscle.is_muscle and ob.parent is not None:
+    if ob is not None and ob.parent is not None and (
+            (ob.type == "MESH" and ob.ewrinkles_muscle.is_muscle)
+            or (ob.type == "CURVE" and ob.ewrinkles_curve.is_curve)):
         return ob.parent
     return ob
 

@@ -222,13 +222,17 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
         return False
     skin = meshio.read_vector_prefix(ev, stage.SKIN_ATTR if enabled else "position", n, state.skin)
     statics = {s.name: _static(state, s, ob, in_scene, changes) for s in active}
-    inputs = (float(ob.ewrinkles_face.strength),) + tuple(s.inputs(ob, statics[s.name]) for s in active)
+    # the build serials: static data rebuilt by an interactive edit (a curve or muscle moved)
+    # must be written even when the skin and the frame's inputs are as before
+    serials = tuple(state.statics[s.name][2] for s in active)
+    inputs = ((float(ob.ewrinkles_face.strength), serials)
+              + tuple(s.inputs(ob, statics[s.name]) for s in active))
     if only_if_changed and state.orig_inputs is not None:
         old_skin, old_inputs = state.orig_inputs
         if old_inputs == inputs and np.array_equal(old_skin, skin):
             return False
     contributions = [s.contribute(ob, statics[s.name], skin, frame_in)
-                     for s, frame_in in zip(active, inputs[1:])]
+                     for s, frame_in in zip(active, inputs[2:])]
     for s in registry.sources():
         status.set(ob, s.name, s.problems(ob, statics[s.name]) if s in active else "")
     _write_shading(ob, active, statics, contributions)

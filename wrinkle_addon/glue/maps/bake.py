@@ -21,7 +21,7 @@ from ...core.maps import jimenez as wrinkle_maps
 from ...core.maps import uvmaps
 from ...core.muscles import system
 from ...core.muscles.waters import muscle_field
-from .. import faces, meshio, stage
+from .. import faces, meshio, stage, surface
 from ..errors import WrinkleError
 from ..muscles import landmarks as muscle_landmarks
 from ..muscles import objects as muscle_objects
@@ -61,53 +61,7 @@ def _check_face(face):
         raise BakeError(why)
 
 
-def uv_layer(face, uv_map=None):
-    """The UV map named ``uv_map``; empty or None: the face's wrinkle-map UV map if set,
-    else the active render UV map.  Raises BakeError."""
-    me = face.data
-    if len(me.uv_layers) == 0:
-        raise BakeError(f'"{face.name}" has no UV map: unwrap it first (UV > Unwrap)')
-    name = uv_map or ""
-    if not name:
-        maps = getattr(face.ewrinkles_face, "maps", None)
-        name = getattr(maps, "uv_map", "") or ""
-    if name:
-        layer = me.uv_layers.get(name)
-        if layer is None:
-            names = ", ".join(f'"{lay.name}"' for lay in me.uv_layers)
-            raise BakeError(f'"{face.name}" has no UV map named "{name}" (it has {names})')
-        return layer
-    for layer in me.uv_layers:
-        if layer.active_render:
-            return layer
-    return me.uv_layers[0]
-
-
-class Surface:
-    """The face's rest mesh as arrays: positions, edges, and fan triangles of corners."""
-
-    def __init__(self, face, uv_map=None, need_uv=True):
-        _check_face(face)
-        me = face.data
-        self.rest = meshio.read_vectors(me, "position")
-        self.edges = meshio.read_edges(me)
-        corner_vert, starts, sizes = meshio.read_polygons(me)
-        # (T, 3) corner indices: the UVs are per corner
-        self.corner_tris = core_mesh.fan_triangles(np.arange(len(corner_vert)), starts, sizes)
-        self.tris = corner_vert[self.corner_tris]  # (T, 3) vertices
-        if len(self.tris) == 0:
-            raise BakeError(f'"{face.name}" has no faces with 3 or more corners')
-        self.uv = None
-        if need_uv:
-            layer = uv_layer(face, uv_map)
-            self.uv_name = layer.name
-            corner_uv = np.empty(len(corner_vert) * 2, np.float32)
-            layer.uv.foreach_get("vector", corner_uv)
-            self.uv = corner_uv.reshape(-1, 2)[self.corner_tris]  # (T, 3, 2)
-            inside = np.all((self.uv >= 0.0) & (self.uv <= 1.0), axis=(1, 2))
-            if not inside.any():
-                raise BakeError(f'The UV map "{layer.name}" of "{face.name}" has no face inside the '
-                                "0-1 UV square: the maps cover only that square")
+Surface, uv_layer = surface.Surface, surface.uv_layer  # the maps' callers use these names
 
 
 def evaluated_skin(face, n, depsgraph=None):

@@ -18,7 +18,7 @@ import numpy as np
 from ...core import mesh as core_mesh
 from ...core.maps import jimenez as wm
 from ...core.maps.jimenez import N_ZONES
-from .. import drivers, faces, images, meshio
+from .. import drivers, faces, images, meshio, nodes
 from .. import frame as frame_stage
 from .. import status as status_store
 from . import bake as mapbake
@@ -176,7 +176,8 @@ def setup(face, material=None, packed=None):
     nt = mat.node_tree
     bsdf = _principled(nt)
     blend_group = mapgroup.ensure_blend_group(n_maps(maps))
-    old = [(lk.from_node.name, lk.from_socket.identifier) for lk in bsdf.inputs["Normal"].links
+    target = nodes.normal_input(nt, bsdf)  # the BSDF's, or the end of a chain of our layers
+    old = [(lk.from_node.name, lk.from_socket.identifier) for lk in target.links
            if lk.from_node.name not in _OURS]
     if maps.base_image is None:
         maps.base_image = _existing_base(nt, bsdf)
@@ -222,7 +223,7 @@ def setup(face, material=None, packed=None):
         normal = nmap.outputs["Normal"]
     elif nmap is not None:
         nt.nodes.remove(nmap)
-    nt.links.new(normal, bsdf.inputs["Normal"])
+    nt.links.new(normal, nodes.normal_input(nt, bsdf))
     sync(face, rebind=True)
     return mat
 
@@ -280,7 +281,7 @@ def remove(face):
         if prev and bsdf is not None and prev[0] in nt.nodes:
             src = next((s for s in nt.nodes[prev[0]].outputs if s.identifier == prev[1]), None)
             if src is not None:
-                nt.links.new(src, bsdf.inputs["Normal"])
+                nt.links.new(src, nodes.normal_input(nt, bsdf))
     ng = maps.weights_group
     maps.weights_group = None
     maps.material = None

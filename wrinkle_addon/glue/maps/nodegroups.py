@@ -32,6 +32,7 @@ import bpy
 
 from ...core.maps.jimenez import N_ZONES, ZONES
 from ..errors import WrinkleError
+from ..nodes import Builder
 
 BLEND_GROUP = "Wrinkle Map Blend"
 WEIGHTS_PREFIX = "Wrinkle Weights"
@@ -115,71 +116,6 @@ def _ensure_interface(ng, n_maps):
     return added
 
 
-class _Builder:
-    """Small helpers to add shader math nodes in a column layout."""
-
-    def __init__(self, ng):
-        self.ng = ng
-        self.x = 0
-        self.y = 0
-
-    def node(self, kind, **props):
-        n = self.ng.nodes.new(kind)
-        for key, value in props.items():
-            setattr(n, key, value)
-        n.location = (self.x, self.y)
-        self.y -= 160
-        return n
-
-    def link(self, out, inp):
-        self.ng.links.new(out, inp)
-
-    def math(self, op, a, b=None, c=None, clamp=False):
-        n = self.node("ShaderNodeMath", operation=op, use_clamp=clamp)
-        for i, v in enumerate((a, b, c)):
-            if v is None:
-                continue
-            if isinstance(v, (int, float)):
-                n.inputs[i].default_value = v
-            else:
-                self.link(v, n.inputs[i])
-        return n.outputs[0]
-
-    def vmath(self, op, a, b=None, c=None, scale=None):
-        n = self.node("ShaderNodeVectorMath", operation=op)
-        for i, v in enumerate((a, b, c)):
-            if v is None:
-                continue
-            if isinstance(v, tuple):
-                n.inputs[i].default_value = v
-            else:
-                self.link(v, n.inputs[i])
-        if scale is not None:
-            if isinstance(scale, (int, float)):
-                n.inputs["Scale"].default_value = scale
-            else:
-                self.link(scale, n.inputs["Scale"])
-        return n.outputs["Value"] if op in ("DOT_PRODUCT", "LENGTH", "DISTANCE") else n.outputs["Vector"]
-
-    def combine(self, x, y, z):
-        n = self.node("ShaderNodeCombineXYZ")
-        for i, v in enumerate((x, y, z)):
-            if isinstance(v, (int, float)):
-                n.inputs[i].default_value = v
-            else:
-                self.link(v, n.inputs[i])
-        return n.outputs[0]
-
-    def separate(self, v):
-        n = self.node("ShaderNodeSeparateXYZ")
-        self.link(v, n.inputs[0])
-        return n.outputs
-
-    def decode(self, color):
-        """2 c - 1 as a vector."""
-        return self.vmath("MULTIPLY_ADD", color, (2.0, 2.0, 2.0), (-1.0, -1.0, -1.0))
-
-
 def _by_id(sockets, identifier):
     """ShaderNodeMix has sockets with duplicate names: pick by identifier
     (docs/architecture.md, "Measured Blender facts")."""
@@ -206,7 +142,7 @@ def _build_blend(ng):
     """
     ng.nodes.clear()
     k_maps = map_count(ng)
-    b = _Builder(ng)
+    b = Builder(ng)
     gin = b.node("NodeGroupInput")
     gin.location = (-1400, 0)
     gout = b.node("NodeGroupOutput")
@@ -319,7 +255,7 @@ def build_weights(ng, names, map_of_expression, n_maps):
     for k in range(n_maps):
         for z in range(N_ZONES):
             ng.interface.new_socket(zone_socket(k, z), in_out="OUTPUT", socket_type="NodeSocketFloat")
-    b = _Builder(ng)
+    b = Builder(ng)
     gout = b.node("NodeGroupOutput")
     gout.location = (600 + 300 * len(names), 0)
     values = []

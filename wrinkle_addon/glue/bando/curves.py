@@ -1,0 +1,208 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Wrinkle-curve objects (Bando, Kuratate & Nishita 2002, §6): Bézier curves drawn on a face
+that mark the furrows of large-scale wrinkles.
+
+The glue reads each curve's splines in bulk, samples them in the face's space with
+``core.bando.curves.bezier``, snaps the samples to the face's rest surface and turns them
+into UV polylines: the paper draws its curves in texture space, we let the artist draw
+them on the skin and project them (§6: "the curve is projected into the UV space").
+"""
+
+import bpy
+import numpy as np
+from mathutils.bvhtree import BVHTree
+
+from ...core.bando import curves as core_curves
+from ..errors import WrinkleError
+
+COLLECTION_NAME = "Wrinkle Curves"
+SAMPLES_PER_SEGMENT = 24
+
+
+class CurveError(WrinkleError):
+    """A wrinkle curve that cannot be used; the message is meant for the user."""
+
+
+def live_curves(face, in_scene=None):
+    """The face's enabled wrinkle curves that exist in the scene, in list order."""
+    out = []
+    for ref in face.ewrinkles_face.wrinkle_curves.items:
+        ob = ref.object
+        if ob is None or ob.type != "CURVE" or not ob.ewrinkles_curve.is_curve:
+            continue
+        if in_scene is not None and ob.session_uid not in in_scene:
+            continue
+        if ob.ewrinkles_curve.enabled:
+            out.append(ob)
+    return out
+
+
+def _points(spline, name):
+    pts = spline.bezier_points
+    arr = np.empty(len(pts) * 3, np.float64)
+    pts.foreach_get(name, arr)
+    return arr.reshape(-1, 3)
+
+
+def spline_data(curve_ob):
+    """Per spline: ``(kind, points, handles_left, handles_right, cyclic)`` in the curve's
+    own space (handles None for poly splines)."""
+    out = []
+    for spline in curve_ob.data.splines:
+        if spline.type == "BEZIER":
+            out.append(("BEZIER", _points(spline, "co"), _points(spline, "handle_left"),
+                        _points(spline, "handle_right"), spline.use_cyclic_u))
+        else:  # poly and NURBS: their control points as a polyline
+            arr = np.empty(len(spline.points) * 4, np.float64)
+            spline.points.foreach_get("co", arr)
+            out.append(("POLY", arr.reshape(-1, 4)[:, :3], None, None, spline.use_cyclic_u))
+    return out
+
+
+def parameters(curve_ob):
+    s = curve_ob.ewrinkles_curve
+    return (curve_ob.name, s.depth, s.width, s.rest_height, s.taper, s.enabled)
+
+
+def signature(curve_ob):
+    """Everything static about a curve: its matrix, its splines and its parameters."""
+    splines = tuple((k, p.tobytes(), None if hl is None else hl.tobytes(),
+                     None if hr is None else hr.tobytes(), c)
+                    for k, p, hl, hr, c in spline_data(curve_ob))
+    return (tuple(map(tuple, curve_ob.matrix_world)), splines) + parameters(curve_ob)
+
+
+def face_space_samples(curve_ob, face):
+    """Each spline of ``curve_ob`` sampled densely, in ``face``'s local space: a list of
+    (k, 3) arrays."""
+    m = np.array(face.matrix_world.inverted_safe() @ curve_ob.matrix_world, np.float64)
+    out = []
+    for kind, p, hl, hr, cyclic in spline_data(curve_ob):
+        if kind == "BEZIER":
+            if cyclic and len(p) > 1:
+                p, hl, hr = np.vstack([p, p[:1]]), np.vstack([hl, hl[:1]]), np.vstack([hr, hr[:1]])
+            pts = core_curves.bezier(p, hl, hr, SAMPLES_PER_SEGMENT) if len(p) > 1 else p
+        else:
+            pts = np.vstack([p, p[:1]]) if cyclic and len(p) > 1 else p
+        out.append(pts @ m[:3, :3].T + m[:3, 3])
+    return out
+
+
+class Snapper:
+    """Closest points on a face's rest surface: ``(T, 3)`` triangles of ``rest``."""
+
+    def __init__(self, rest, tris):
+        self.rest = np.asarray(rest, np.float64)
+        self.tris = np.asarray(tris, np.int64)
+        self.bvh = BVHTree.FromPolygons(self.rest.tolist(), self.tris.tolist(), all_triangles=True)
+
+    def nearest(self, points):
+        """For (k, 3) points: the triangle index (k,), the barycentric coordinates (k, 3)
+        of the closest surface point, and the distance (k,).  -1 where none was found."""
+        points = np.asarray(points, np.float64)
+        tri = np.full(len(points), -1, np.int64)
+        loc = np.zeros_like(points)
+        dist = np.full(len(points), np.inf)
+        for i, co in enumerate(points):  # one query per curve sample (not per vertex)
+            hit = self.bvh.find_nearest(co)
+            if hit[0] is not None:
+                loc[i], tri[i], dist[i] = hit[0], hit[2], hit[3]
+        ok = tri >= 0
+        bary = np.zeros((len(points), 3))
+        if ok.any():
+            a, b, c = (self.rest[self.tris[tri[ok], k]] for k in range(3))
+            bary[ok] = _barycentric(loc[ok], a, b, c)
+        return tri, bary, dist
+
+
+def _barycentric(p, a, b, c):
+    v0, v1, v2 = b - a, c - a, p - a
+    d00 = np.einsum("ij,ij->i", v0, v0)
+    d01 = np.einsum("ij,ij->i", v0, v1)
+    d11 = np.einsum("ij,ij->i", v1, v1)
+    d20 = np.einsum("ij,ij->i", v2, v0)
+    d21 = np.einsum("ij,ij->i", v2, v1)
+    den = d00 * d11 - d01 * d01
+    den = np.where(np.abs(den) > 1e-30, den, 1.0)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    return np.clip(np.stack([1.0 - v - w, v, w], 1), 0.0, 1.0)
+
+
+def uv_polylines(curve_ob, face, snapper, corner_uv, tolerance):
+    """The curve's splines as UV polylines (a list of (k, 2)), snapped to the rest surface.
+    Raises CurveError when a spline lies farther than ``tolerance`` (face units) from the
+    skin, outside the 0-1 UV square, or across a UV seam."""
+    out = []
+    for pts in face_space_samples(curve_ob, face):
+        if len(pts) < 2 or not np.isfinite(pts).all():
+            raise CurveError(f'The wrinkle curve "{curve_ob.name}" needs at least two points')
+        tri, bary, dist = snapper.nearest(pts)
+        far = float(np.max(dist))
+        if not np.isfinite(far) or far > tolerance:
+            raise CurveError(
+                f'The wrinkle curve "{curve_ob.name}" is off the surface of "{face.name}" '
+                f"({far * 1000:.1f} mm away in the face's units): draw it with snapping to the face, "
+                "or use Snap to Face")
+        uv = np.einsum("kc,kcj->kj", bary, corner_uv[tri])
+        if not ((uv >= 0.0) & (uv <= 1.0)).all():
+            raise CurveError(f'The wrinkle curve "{curve_ob.name}" runs outside the 0-1 UV square of '
+                             f'"{face.name}": wrinkles are placed in UV space, so move it or fix the UVs')
+        step = np.linalg.norm(np.diff(uv, axis=0), axis=1)
+        step3 = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        ratio = step / np.maximum(step3, 1e-12)
+        typical = np.median(ratio[step3 > 1e-12]) if (step3 > 1e-12).any() else 0.0
+        if typical > 0 and (ratio > 20.0 * typical).any():
+            raise CurveError(f'The wrinkle curve "{curve_ob.name}" crosses a UV seam of "{face.name}": '
+                             "split it at the seam (one curve per side)")
+        out.append(uv)
+    return out
+
+
+def create(context, face, points, name=None):
+    """A new wrinkle curve through the (k, 3) ``points`` (k >= 2) in ``face``'s local space,
+    with automatic handles, parented to ``face`` (so it follows the face) and added to its
+    list."""
+    points = np.asarray(points, np.float64).reshape(-1, 3)
+    if len(points) < 2 or not np.isfinite(points).all():
+        raise CurveError("A wrinkle curve needs at least two distinct, finite points")
+    coll = bpy.data.collections.get(COLLECTION_NAME)
+    if coll is None:
+        coll = bpy.data.collections.new(COLLECTION_NAME)
+    if context.scene.user_of_id(coll) == 0:
+        context.scene.collection.children.link(coll)
+    cu = bpy.data.curves.new(name or "Wrinkle Curve", "CURVE")
+    cu.dimensions = "3D"
+    spline = cu.splines.new("BEZIER")
+    spline.bezier_points.add(len(points) - 1)
+    spline.bezier_points.foreach_set("co", points.ravel())
+    for bp in spline.bezier_points:  # a handful of points
+        bp.handle_left_type = bp.handle_right_type = "AUTO"
+    ob = bpy.data.objects.new(cu.name, cu)
+    coll.objects.link(ob)
+    ob.parent = face
+    ob.matrix_parent_inverse.identity()  # the curve's space is the face's
+    ob.ewrinkles_curve.is_curve = True
+    lst = face.ewrinkles_face.wrinkle_curves
+    lst.items.add().object = ob
+    lst.active = len(lst.items) - 1
+    return ob
+
+
+def annotation_strokes(scene):
+    """The points (k, 3) world space of every annotation stroke of ``scene``, oldest first:
+    of each layer, the frame shown at the current frame (the last one at or before it)."""
+    data = getattr(scene, "annotation", None) or getattr(scene, "grease_pencil", None)  # 5.x, 4.x
+    if data is None:
+        return []
+    out = []
+    for layer in data.layers:
+        frames = sorted(layer.frames, key=lambda f: f.frame_number)
+        shown = [f for f in frames if f.frame_number <= scene.frame_current] or frames[:1]
+        if not shown:
+            continue
+        for stroke in shown[-1].strokes:
+            arr = np.empty(len(stroke.points) * 3, np.float32)
+            stroke.points.foreach_get("co", arr)
+            out.append(arr.reshape(-1, 3).astype(np.float64))
+    return out

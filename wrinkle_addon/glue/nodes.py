@@ -1,0 +1,87 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Building shader node groups in code: the one helper every method's node groups use."""
+
+
+class Builder:
+    """Small helpers to add shader math nodes in a column layout."""
+
+    def __init__(self, ng):
+        self.ng = ng
+        self.x = 0
+        self.y = 0
+
+    def node(self, kind, **props):
+        n = self.ng.nodes.new(kind)
+        for key, value in props.items():
+            setattr(n, key, value)
+        n.location = (self.x, self.y)
+        self.y -= 160
+        return n
+
+    def link(self, out, inp):
+        self.ng.links.new(out, inp)
+
+    def math(self, op, a, b=None, c=None, clamp=False):
+        n = self.node("ShaderNodeMath", operation=op, use_clamp=clamp)
+        for i, v in enumerate((a, b, c)):
+            if v is None:
+                continue
+            if isinstance(v, (int, float)):
+                n.inputs[i].default_value = v
+            else:
+                self.link(v, n.inputs[i])
+        return n.outputs[0]
+
+    def vmath(self, op, a, b=None, c=None, scale=None):
+        n = self.node("ShaderNodeVectorMath", operation=op)
+        for i, v in enumerate((a, b, c)):
+            if v is None:
+                continue
+            if isinstance(v, tuple):
+                n.inputs[i].default_value = v
+            else:
+                self.link(v, n.inputs[i])
+        if scale is not None:
+            if isinstance(scale, (int, float)):
+                n.inputs["Scale"].default_value = scale
+            else:
+                self.link(scale, n.inputs["Scale"])
+        return n.outputs["Value"] if op in ("DOT_PRODUCT", "LENGTH", "DISTANCE") else n.outputs["Vector"]
+
+    def combine(self, x, y, z):
+        n = self.node("ShaderNodeCombineXYZ")
+        for i, v in enumerate((x, y, z)):
+            if isinstance(v, (int, float)):
+                n.inputs[i].default_value = v
+            else:
+                self.link(v, n.inputs[i])
+        return n.outputs[0]
+
+    def separate(self, v):
+        n = self.node("ShaderNodeSeparateXYZ")
+        self.link(v, n.inputs[0])
+        return n.outputs
+
+    def decode(self, color):
+        """2 c - 1 as a vector."""
+        return self.vmath("MULTIPLY_ADD", color, (2.0, 2.0, 2.0), (-1.0, -1.0, -1.0))
+
+
+LAYER_TAG = "ewrinkles_normal_layer"
+
+
+def normal_input(nt, bsdf):
+    """The socket a normal map should feed in material ``nt``: the BSDF's Normal, or, when
+    normal layers of ours (nodes tagged ``LAYER_TAG``, each with a ``Normal`` input it
+    perturbs, like the fine wrinkles' bump) already feed it, the Normal input at the end of
+    their chain.  So the wrinkle maps and the fine wrinkles stack in one material whichever
+    is set up first."""
+    sock = bsdf.inputs["Normal"]
+    seen = set()
+    while sock.links:
+        node = sock.links[0].from_node
+        if not node.get(LAYER_TAG) or node.name in seen or "Normal" not in node.inputs:
+            break
+        seen.add(node.name)
+        sock = node.inputs["Normal"]
+    return sock

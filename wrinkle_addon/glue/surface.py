@@ -1,0 +1,66 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The face's rest surface as arrays, with its UVs: what every method that works in UV space
+(the wrinkle-map bakes, the wrinkle curves, the fine wrinkles) reads from the mesh."""
+
+import numpy as np
+
+from ..core import mesh as core_mesh
+from . import faces, meshio
+from .errors import WrinkleError
+
+
+class SurfaceError(WrinkleError):
+    """The face's mesh or UV map cannot be used; the message is meant for the user."""
+
+
+def uv_layer(face, uv_map=None):
+    """The UV map named ``uv_map``; empty or None: the face's wrinkle-map UV map if set,
+    else the active render UV map.  Raises SurfaceError."""
+    me = face.data
+    if len(me.uv_layers) == 0:
+        raise SurfaceError(f'"{face.name}" has no UV map: unwrap it first (UV > Unwrap)')
+    name = uv_map or ""
+    if not name:
+        maps = getattr(face.ewrinkles_face, "maps", None)
+        name = getattr(maps, "uv_map", "") or ""
+    if name:
+        layer = me.uv_layers.get(name)
+        if layer is None:
+            names = ", ".join(f'"{lay.name}"' for lay in me.uv_layers)
+            raise SurfaceError(f'"{face.name}" has no UV map named "{name}" (it has {names})')
+        return layer
+    for layer in me.uv_layers:
+        if layer.active_render:
+            return layer
+    return me.uv_layers[0]
+
+
+class Surface:
+    """The face's rest mesh as arrays: ``rest`` (N, 3), ``edges``, the fan triangles
+    ``tris`` (T, 3) of vertices and ``corner_tris`` (T, 3) of corners, and with
+    ``need_uv`` the UVs ``uv`` (T, 3, 2) of those corners.  Raises SurfaceError."""
+
+    def __init__(self, face, uv_map=None, need_uv=True):
+        why = faces.problem(face, local=False, object_mode=True)
+        if why:
+            raise SurfaceError(why)
+        me = face.data
+        self.rest = meshio.read_vectors(me, "position")
+        self.edges = meshio.read_edges(me)
+        corner_vert, starts, sizes = meshio.read_polygons(me)
+        # (T, 3) corner indices: the UVs are per corner
+        self.corner_tris = core_mesh.fan_triangles(np.arange(len(corner_vert)), starts, sizes)
+        self.tris = corner_vert[self.corner_tris]  # (T, 3) vertices
+        if len(self.tris) == 0:
+            raise SurfaceError(f'"{face.name}" has no faces with 3 or more corners')
+        self.uv = None
+        if need_uv:
+            layer = uv_layer(face, uv_map)
+            self.uv_name = layer.name
+            corner_uv = np.empty(len(corner_vert) * 2, np.float32)
+            layer.uv.foreach_get("vector", corner_uv)
+            self.uv = corner_uv.reshape(-1, 2)[self.corner_tris]  # (T, 3, 2)
+            inside = np.all((self.uv >= 0.0) & (self.uv <= 1.0), axis=(1, 2))
+            if not inside.any():
+                raise SurfaceError(f'The UV map "{layer.name}" of "{face.name}" has no face inside the '
+                                   "0-1 UV square: the maps cover only that square")

@@ -1,0 +1,49 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The large-scale wrinkle curves in the sidebar (Bando, Kuratate & Nishita 2002, §6): the
+face's curve list and the active curve's settings, drawn in the face panel by the curve
+source."""
+
+import bpy
+
+
+class WRINKLE_UL_curves(bpy.types.UIList):
+    bl_idname = "WRINKLE_UL_curves"
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
+        ob = item.object
+        if ob is None or not ob.users_scene:
+            layout.label(text="(deleted curve)", icon="ERROR")
+            return
+        s = ob.ewrinkles_curve
+        row = layout.row(align=True)
+        row.prop(ob, "name", text="", emboss=False, icon="CURVE_BEZCURVE")
+        row.prop(s, "depth", text="")
+        row.prop(s, "enabled", text="", icon="HIDE_OFF" if s.enabled else "HIDE_ON", emboss=False)
+
+
+def draw_face_curves(layout, context, face):
+    """The wrinkle curves' part of the face panel."""
+    lst = face.ewrinkles_face.wrinkle_curves
+    row = layout.row()
+    row.template_list("WRINKLE_UL_curves", "", lst, "items", lst, "active", rows=3)
+    col = row.column(align=True)
+    col.operator("wrinkle.add_curve", icon="ADD", text="")
+    col.operator("wrinkle.remove_curve", icon="REMOVE", text="")
+    row = layout.row(align=True)
+    row.operator("wrinkle.curve_from_edges", text="From Edges", icon="EDGESEL")
+    row.operator("wrinkle.curve_from_stroke", text="From Stroke", icon="GREASEPENCIL")
+    row = layout.row(align=True)
+    row.operator("wrinkle.use_curve", icon="CURVE_DATA")
+    row.operator("wrinkle.snap_curve", icon="SNAP_FACE")
+    if 0 <= lst.active < len(lst.items) and lst.items[lst.active].object is not None:
+        s = lst.items[lst.active].object.ewrinkles_curve
+        col = layout.column()
+        col.use_property_split = True
+        col.prop(s, "depth")
+        col.prop(s, "width")
+        col.prop(s, "rest_height")
+        col.prop(s, "taper")
+
+
+classes = (WRINKLE_UL_curves,)
+register, unregister = bpy.utils.register_classes_factory(classes)
