@@ -156,8 +156,9 @@ def test_the_curves_survive_saving_and_reopening(tmp_blend):
     add_curve(face)
     bpy.context.scene.frame_set(1)
     before = heights(face)
-    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_blend))
-    bpy.ops.wm.open_mainfile(filepath=str(tmp_blend))
+    path = str(tmp_blend("curves"))
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
     face = bpy.data.objects["Face"]
     assert len(face.ewrinkles_face.wrinkle_curves.items) == 1
     bpy.context.scene.frame_set(1)
