@@ -10,6 +10,7 @@ import pytest
 
 from sample_scenes.lib import ict, scene_setup
 from wrinkle_addon.core.muscles import landmark_finder, presets
+from wrinkle_addon.glue import meshio
 from wrinkle_addon.glue.muscles import landmarks
 from wrinkle_addon.ops.muscles import WRINKLE_OT_add_landmarks
 
@@ -92,5 +93,5 @@ def test_shape_keys_are_read_for_the_rig_rule():
     face.shape_key_add(name="Basis", from_mix=False)
     key = face.shape_key_add(name="eyeBlinkLeft", from_mix=False)
     key.data[0].co = (0.0, 0.0, -0.5)
-    keys = landmarks._shape_keys(face.data, 4)
+    keys = meshio.shape_keys(face.data, 4)
     assert list(keys) == ["eyeBlinkLeft"] and keys["eyeBlinkLeft"][0, 2] == pytest.approx(-0.5)

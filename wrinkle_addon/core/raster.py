@@ -255,6 +255,14 @@ def uv_jacobian(positions, uv):
     return _frames(positions, uv)[0]
 
 
+def uv_frames(positions, uv):
+    """Per triangle of the (T * 3, 3) corner ``positions`` and (T * 3, 2) corner ``uv``:
+    ``(frame, tangent, bitangent, gradient rows, area)``, the frame as in
+    :func:`uv_jacobian`, the unit tangent and bitangent (T, 3), the rows that turn corner
+    differences into UV derivatives (T, 2, 2) and the 3-D area (T,)."""
+    return _frames(positions, uv)
+
+
 def vertex_slopes(uv, positions, heights, verts, weights=None):
     """Smooth tangent-space slopes per triangle corner (T, 3, 2): ``(a, b)`` of
     :func:`slopes` from the height's surface gradient averaged at the mesh vertices.
@@ -548,3 +556,20 @@ def soften(memberships, edges, t):
     soft = np.where(total > 1.0, soft / np.where(total > 1.0, total, 1.0), soft)
     return soft.astype(_F)
 
+
+
+def uv_overlap(uv, resolution=512):
+    """How much of the UV layout is covered twice: ``sum of the triangles' UV areas /
+    covered area - 1`` at ``resolution`` (0 for a layout without overlaps, up to
+    rasterisation noise of about 1/R per unit of island border; 1 when two halves of a
+    face are stacked, as mirrored UVs are).  ``uv`` (T, 3, 2)."""
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 3, 2)
+    inside = np.all((uv >= 0.0) & (uv <= 1.0), axis=(1, 2))
+    t = uv[inside]
+    if len(t) == 0:
+        return 0.0
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
+    _img, covered = rasterize(t, None, resolution)
+    n = covered.sum()
+    return float(area * resolution * resolution / n - 1.0) if n else 0.0

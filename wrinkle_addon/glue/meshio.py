@@ -86,3 +86,19 @@ def read_polygons(me):
 def topology_key(me):
     """Counts that change with any topology edit (cheap, checked every frame)."""
     return (len(me.vertices), len(me.edges), len(me.loops), len(me.polygons))
+
+
+def shape_keys(me, n):
+    """``{name: (n, 3) float32}`` of the mesh's shape keys other than the reference key
+    (their ``points``: the fast path)."""
+    keys = me.shape_keys
+    if keys is None:
+        return {}
+    out = {}
+    for kb in keys.key_blocks:  # a few dozen keys
+        if kb == keys.reference_key:
+            continue
+        co = np.empty(n * 3, np.float32)
+        kb.points.foreach_get("co", co)
+        out[kb.name] = co.reshape(n, 3)
+    return out

@@ -2,10 +2,11 @@
 """The face's rest surface as arrays, with its UVs: what every method that works in UV space
 (the wrinkle-map bakes, the wrinkle curves, the fine wrinkles) reads from the mesh."""
 
+import bpy
 import numpy as np
 
 from ..core import mesh as core_mesh
-from . import faces, meshio
+from . import faces, meshio, stage
 from .errors import WrinkleError
 
 
@@ -64,3 +65,17 @@ class Surface:
             if not inside.any():
                 raise SurfaceError(f'The UV map "{layer.name}" of "{face.name}" has no face inside the '
                                    "0-1 UV square: the maps cover only that square")
+
+
+def evaluated_skin(face, n, depsgraph=None):
+    """The deformed skin before wrinkles (n, 3) float32: ``wrinkle_skin`` of the evaluated
+    mesh when the Wrinkles stage exists, else the evaluated positions (the first ``n``
+    vertices), from ``depsgraph`` (default: the context's).  None when the modifiers
+    leave fewer than ``n`` vertices."""
+    dg = depsgraph or bpy.context.evaluated_depsgraph_get()
+    ev = face.evaluated_get(dg).data
+    name = stage.SKIN_ATTR if (stage.find_modifier(face) is not None
+                               and ev.attributes.get(stage.SKIN_ATTR) is not None) else "position"
+    if len(ev.vertices) < n:
+        return None
+    return meshio.read_vector_prefix(ev, name, n, np.empty((n, 3), np.float32))

@@ -9,14 +9,16 @@ points back on the skin.  Every operator is undoable and reports bad input clear
 
 import bpy
 import numpy as np
-from bpy.props import FloatProperty
+from bpy.props import FloatProperty, FloatVectorProperty
 
 from ..core.bando import curves as core_curves
 from ..glue import faces
 from ..glue import frame as pipeline
 from ..glue import surface as face_surface
 from ..glue.bando import curves
+from ..glue.bando import fine as fine_glue
 from ..glue.errors import WrinkleError
+from ..glue.progress import Progress
 from .common import face_poll, guarded
 
 _face = faces.active
@@ -262,6 +264,92 @@ class WRINKLE_OT_remove_curve(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (WRINKLE_OT_add_curve, WRINKLE_OT_curve_from_edges, WRINKLE_OT_curve_from_stroke,
-           WRINKLE_OT_use_curve, WRINKLE_OT_snap_curve, WRINKLE_OT_remove_curve)
+class WRINKLE_OT_carve_fine(bpy.types.Operator):
+    """Carve the face's fine wrinkles (Bando 2002 §5): furrows along two direction fields into
+    two height images, bump-mapped in the face's material and deepened where the skin shrinks
+    across them. Takes a few seconds"""
+
+    bl_idname = "wrinkle.carve_fine"
+    bl_label = "Carve Fine Wrinkles"
+    bl_options = {"REGISTER", "UNDO"}
+
+    poll = face_poll(object_mode=True, uv=True)
+
+    @guarded
+    def execute(self, context):
+        face = _face(context)
+        with Progress(context, self.bl_label, total=fine_glue.STEPS) as progress:
+            results = fine_glue.carve(context, face, progress)
+        pipeline.refresh_all(context)
+        fs = face.ewrinkles_face.fine_wrinkles
+        self.report({"INFO"}, f"Carved {fs.furrows} furrows in two {results[0].height.shape[0]} px images "
+                              f"({fs.coverage:.0%} of the UV islands covered)")
+        return {"FINISHED"}
+
+
+class WRINKLE_OT_remove_fine(bpy.types.Operator):
+    """Remove the face's fine wrinkles from its material (the images stay in the file until
+    it is saved without users)"""
+
+    bl_idname = "wrinkle.remove_fine"
+    bl_label = "Remove Fine Wrinkles"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        face = _face(context)
+        ok = (face is not None and face.type == "MESH"
+              and face.ewrinkles_face.fine_wrinkles.image_1 is not None)
+        if not ok:
+            cls.poll_message_set("The face has no fine wrinkles")
+        return ok
+
+    @guarded
+    def execute(self, context):
+        fine_glue.remove(_face(context))
+        pipeline.refresh_all(context)
+        return {"FINISHED"}
+
+
+class WRINKLE_OT_fine_direction(bpy.types.Operator):
+    """Give the selected vertices a fine-wrinkle direction (a guide for Directions: From
+    Guides). Its length is the magnitude m: longer, deeper, straighter furrows near 1"""
+
+    bl_idname = "wrinkle.fine_direction"
+    bl_label = "Set Direction"
+    bl_options = {"REGISTER", "UNDO"}
+
+    direction: FloatVectorProperty(
+        name="Direction", description="The direction of the furrows, in the face's space (X: across "
+        "the face); its length (at most 1) is the magnitude m", default=(0.5, 0.0, 0.0), size=3,
+    )
+
+    poll = face_poll(object_mode=False)
+
+    @guarded
+    def execute(self, context):
+        face = _face(context)
+        if face.mode == "EDIT":
+            face.update_from_editmode()
+        me = face.data
+        sel = np.zeros(len(me.vertices), bool)
+        me.vertices.foreach_get("select", sel)
+        if not sel.any():
+            raise WrinkleError(f'Select vertices of "{face.name}" first (Edit Mode)')
+        if np.linalg.norm(self.direction) < 1e-9:
+            raise WrinkleError("The direction must not be zero")
+        edit = face.mode == "EDIT"
+        if edit:
+            bpy.ops.object.mode_set(mode="OBJECT")
+        fine_glue.set_guides(face, np.flatnonzero(sel), np.array(self.direction, np.float64))
+        if edit:
+            bpy.ops.object.mode_set(mode="EDIT")
+        face.ewrinkles_face.fine_wrinkles.field_source = "GUIDES"
+        self.report({"INFO"}, f"Direction set on {int(sel.sum())} vertices; Carve Fine Wrinkles to use it")
+        return {"FINISHED"}
+
+
+classes = (WRINKLE_OT_carve_fine, WRINKLE_OT_remove_fine, WRINKLE_OT_fine_direction, WRINKLE_OT_add_curve,
+           WRINKLE_OT_curve_from_edges, WRINKLE_OT_curve_from_stroke, WRINKLE_OT_use_curve,
+           WRINKLE_OT_snap_curve, WRINKLE_OT_remove_curve)
 register, unregister = bpy.utils.register_classes_factory(classes)

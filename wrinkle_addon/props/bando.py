@@ -1,10 +1,20 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Properties of the large-scale wrinkle curves (Bando, Kuratate & Nishita 2002, §6-7):
-``Object.ewrinkles_curve`` on wrinkle-curve objects, and the face's list of its curves
-(hung on the face by the curve source)."""
+"""Properties of Bando, Kuratate & Nishita 2002's wrinkles: ``Object.ewrinkles_curve`` on
+wrinkle-curve objects (§6-7), the face's list of its curves and its fine-wrinkle settings
+(§5), each hung on the face by its wrinkle source."""
+
+import math
 
 import bpy
-from bpy.props import BoolProperty, CollectionProperty, FloatProperty, IntProperty, PointerProperty
+from bpy.props import (
+    BoolProperty,
+    CollectionProperty,
+    EnumProperty,
+    FloatProperty,
+    IntProperty,
+    PointerProperty,
+    StringProperty,
+)
 
 from .common import refresh
 
@@ -77,3 +87,97 @@ class WrinkleCurveList(bpy.types.PropertyGroup):
         description="Index of the selected wrinkle curve in the list",
         default=0, min=0,
     )
+
+
+def _sync_fine(self, context):
+    from ..glue.bando import fine
+
+    fine.sync(self.id_data)
+
+
+class WrinkleFineSettings(bpy.types.PropertyGroup):
+    """Fine-scale wrinkles (Bando 2002, §5): carved once into two height images, modulated
+    every frame by the skin's shrinkage across each direction field (§7)."""
+
+    field_source: EnumProperty(
+        name="Directions",
+        description="Where the wrinkle directions come from",
+        items=[
+            ("FACE", "From the Face", "Wrinkles run across the direction in which the skin is most "
+             "compressed by the face's shape keys and its current pose (muscles, bones)"),
+            ("GUIDES", "From Guides", "Directions you give: annotation strokes on the face, selected "
+             "curve objects, and directions set on selected vertices (Set Direction); interpolated "
+             "over the face (Bando 2002 §5.1)"),
+        ],
+        default="FACE",
+    )
+    angle: FloatProperty(
+        name="Second Direction",
+        description="Angle of the second family of furrows to the first: fine furrows run in two "
+        "directions and cross in diamonds (Bando 2002 §3)",
+        default=math.radians(65.0), min=0.0, max=math.pi, subtype="ANGLE",
+    )
+    resolution: EnumProperty(
+        name="Resolution",
+        description="Size of the two height images",
+        items=[(str(r), f"{r} x {r}", f"Carve {r} x {r} pixel height images")
+               for r in (512, 1024, 2048, 4096)],
+        default="1024",
+    )
+    seed: IntProperty(
+        name="Seed",
+        description="Random seed of the furrows' starting points and perturbation: the same seed "
+        "carves the same images",
+        default=1, min=0,
+    )
+    reference_length: FloatProperty(
+        name="Stroke Length for Full Strength",
+        description="A guide stroke this long (on the skin) gives the strongest, longest, deepest "
+        "furrows (magnitude m = 1); shorter strokes give finer, more irregular ones",
+        default=0.05, min=0.001, soft_max=0.3, subtype="DISTANCE", unit="LENGTH",
+    )
+    strength: FloatProperty(
+        name="Strength",
+        description="Strength of the fine wrinkles' bump in the material",
+        default=1.0, min=0.0, soft_max=5.0,
+        update=_sync_fine,
+    )
+    distance: FloatProperty(
+        name="Depth",
+        description="Depth of a full fine furrow in the bump, in scene units",
+        default=0.0003, min=0.0, soft_max=0.003, subtype="DISTANCE", unit="LENGTH",
+        update=_sync_fine,
+    )
+    rest_height: FloatProperty(
+        name="Rest Height r",
+        description="Height of the fine wrinkles on the undeformed skin relative to their full "
+        "height (Bando 2002 eq. 5's r; 0.5 in the paper: fine wrinkles show at rest, deepen where "
+        "the skin shrinks across them and fade where it stretches)",
+        default=0.5, min=0.0, max=1.0, subtype="FACTOR",
+        update=_sync_fine,
+    )
+    image_1: PointerProperty(
+        name="Height Image 1", description="The carved furrows of the first direction field",
+        type=bpy.types.Image,
+    )
+    image_2: PointerProperty(
+        name="Height Image 2", description="The carved furrows of the second direction field",
+        type=bpy.types.Image,
+    )
+    material: PointerProperty(
+        name="Material", description="The material the fine wrinkles are wired into",
+        type=bpy.types.Material,
+    )
+    uv_map: StringProperty(
+        name="UV Map", description="The UV map the furrows were carved in",
+        default="",
+    )
+    furrows: IntProperty(
+        name="Furrows", description="How many furrows the last carving made (both images)",
+        default=0, min=0,
+    )
+    coverage: FloatProperty(
+        name="Coverage", description="Fraction of the UV islands the furrows of the first image cover",
+        default=0.0, min=0.0, max=1.0, subtype="FACTOR",
+    )
+

@@ -45,5 +45,29 @@ def draw_face_curves(layout, context, face):
         col.prop(s, "taper")
 
 
+def draw_face_fine(layout, context, face):
+    """The fine wrinkles' part of the face panel."""
+    fs = face.ewrinkles_face.fine_wrinkles
+    col = layout.column()
+    col.use_property_split = True
+    col.prop(fs, "field_source")
+    if fs.field_source == "GUIDES":
+        col.prop(fs, "reference_length")
+        col.operator("wrinkle.fine_direction", icon="ORIENTATION_NORMAL")
+    col.prop(fs, "angle")
+    col.prop(fs, "resolution")
+    col.prop(fs, "seed")
+    row = layout.row(align=True)
+    row.operator("wrinkle.carve_fine", icon="MOD_NOISE")
+    row.operator("wrinkle.remove_fine", icon="TRASH", text="")
+    if fs.image_1 is not None:
+        layout.label(text=f"{fs.furrows} furrows, {fs.coverage:.0%} covered", icon="INFO")
+        col = layout.column()
+        col.use_property_split = True
+        col.prop(fs, "strength")
+        col.prop(fs, "distance")
+        col.prop(fs, "rest_height")
+
+
 classes = (WRINKLE_UL_curves,)
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -12,7 +12,6 @@ before any image is created, so bad input creates nothing.
 """
 
 
-import bpy
 import numpy as np
 
 from ...core import mesh as core_mesh
@@ -21,7 +20,7 @@ from ...core.maps import jimenez as wrinkle_maps
 from ...core.maps import uvmaps
 from ...core.muscles import system
 from ...core.muscles.waters import muscle_field
-from .. import faces, meshio, stage, surface
+from .. import faces, surface
 from ..errors import WrinkleError
 from ..muscles import landmarks as muscle_landmarks
 from ..muscles import objects as muscle_objects
@@ -65,17 +64,12 @@ Surface, uv_layer = surface.Surface, surface.uv_layer  # the maps' callers use t
 
 
 def evaluated_skin(face, n, depsgraph=None):
-    """The deformed skin before wrinkles: ``wrinkle_skin`` of the evaluated mesh when the
-    Wrinkles stage exists, else the evaluated positions (the first ``n`` vertices), from
-    ``depsgraph`` (default: the context's)."""
-    dg = depsgraph or bpy.context.evaluated_depsgraph_get()
-    ev = face.evaluated_get(dg).data
-    name = stage.SKIN_ATTR if (stage.find_modifier(face) is not None
-                               and ev.attributes.get(stage.SKIN_ATTR) is not None) else "position"
-    if len(ev.vertices) < n:
+    """:func:`glue.surface.evaluated_skin`, or BakeError when the modifiers remove vertices."""
+    skin = surface.evaluated_skin(face, n, depsgraph)
+    if skin is None:
         raise BakeError(f'The modifiers of "{face.name}" remove vertices: bake the current pose '
                         "with them disabled, or use Each Muscle Contracted")
-    return meshio.read_vector_prefix(ev, name, n, np.empty((n, 3), np.float32))
+    return skin
 
 
 def _muscles(face, muscles):

@@ -21,28 +21,13 @@ def surface_scale(face):
     return max(max(dims), 1e-6)
 
 
-def _shape_keys(me, n):
-    """``{name: (n, 3) float32}`` of the mesh's shape keys other than the reference key."""
-    keys = me.shape_keys
-    if keys is None:
-        return {}
-    out = {}
-    for kb in keys.key_blocks:  # a few dozen keys
-        if kb == keys.reference_key:
-            continue
-        co = np.empty(n * 3, np.float32)
-        kb.points.foreach_get("co", co)
-        out[kb.name] = co.reshape(n, 3)
-    return out
-
-
 def find_landmarks(face):
     """``(landmarks, method, message)`` of ``landmark_finder.find_landmarks`` on the face's
     rest mesh (its own positions, polygons and shape keys; face-local)."""
     me = face.data
     rest = meshio.read_vectors(me, "position")
     polys = meshio.read_polygons(me)
-    return landmark_finder.find_landmarks(rest, polys, _shape_keys(me, len(rest)))
+    return landmark_finder.find_landmarks(rest, polys, meshio.shape_keys(me, len(rest)))
 
 
 def guess_landmarks(face):
