@@ -163,3 +163,21 @@ def test_the_curves_survive_saving_and_reopening(tmp_blend):
     assert len(face.ewrinkles_face.wrinkle_curves.items) == 1
     bpy.context.scene.frame_set(1)
     np.testing.assert_allclose(heights(face), before, atol=1e-7)
+
+
+def test_bake_wrinkle_map_bakes_the_curves():
+    from wrinkle_addon.glue.maps import bake as mapbake
+
+    face = uv_face()
+    add_curve(face, rest_height=0.0)
+    formed = mapbake.bake_height(face, "MUSCLES")  # no muscles: the curves alone, fully formed
+    rest = np.array([v.co for v in face.data.vertices])
+    assert formed.min() < -0.25e-3 and formed.max() > 0.0  # S(1 mm) = -0.3 d: the nearest row
+    assert rest[np.argmin(formed), 2] == pytest.approx(MID, abs=0.003)
+    assert np.all(mapbake.bake_height(face, "POSE") == 0.0)  # r = 0 at rest: nothing this frame
+    face.data.shape_keys.key_blocks["BrowsUp"].value = 1.0
+    bpy.context.view_layer.update()
+    posed = mapbake.bake_height(face, "POSE")
+    assert formed.min() < posed.min() < 0.0
+    pd = mapbake.bake_wrinkle_map(face, 128, "MUSCLES")
+    assert np.abs(pd[..., :2] - 0.5).max() > 0.05  # the map shows the furrow's slopes

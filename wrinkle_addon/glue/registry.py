@@ -81,6 +81,14 @@ class WrinkleSource:
         """Write one of the contribution's ``shading`` values (its ``attributes`` are
         written by the stage as point attributes)."""
 
+    def map_heights(self, face, mesh, skin, formed):
+        """This source's heights (N,) along the normal for a baked wrinkle map (the maps'
+        Bake Wrinkle Map), or None if it has none.  ``formed``: the wrinkles fully formed
+        (the map's animated zone weights play the part of their amplitude), else those of
+        this frame on the posed ``skin`` (N, 3).  The muscles are baked by the maps
+        themselves, zone by zone; other geometric sources add theirs here."""
+        return None
+
     def problems(self, face, static):
         """A message for the panel about the static data (e.g. a muscle without effect)."""
         return ""

@@ -3,6 +3,7 @@
 source: each wrinkle curve's profile ``S(l)`` (eq. 2) along the normal, modulated by the
 skin's shrinkage across the curve (eq. 4-5), from ``core.bando``."""
 
+import bpy
 import numpy as np
 
 from ..core import combine
@@ -78,6 +79,19 @@ class CurveSource(WrinkleSource):
         if static.plan is None or len(static.footprint.height_verts) == 0:
             return combine.Contribution()
         return combine.Contribution(height=large.heights(static.plan, skin[static.patch_mesh_verts]))
+
+    def map_heights(self, face, mesh, skin, formed):
+        static = self.build(face, mesh, {o.session_uid for o in bpy.context.scene.objects})
+        if static.problem:
+            raise curves.CurveError(static.problem)
+        if static.plan is None:
+            return None
+        out = np.zeros(len(mesh.rest), np.float32)
+        if formed:  # every wrinkle at its full height: M(s) = 1
+            out[static.footprint.height_verts] = large.heights(static.plan, None, formed=True)
+        else:
+            out[static.footprint.height_verts] = large.heights(static.plan, skin[static.patch_mesh_verts])
+        return out
 
     def problems(self, face, static):
         return static.problem

@@ -81,14 +81,18 @@ def build(mapped, rest, curves, rest_heights):
                      r, (plan.static / seam).astype(_F))
 
 
-def heights(plan, skin_mapped_patch):
+def heights(plan, skin_mapped_patch, formed=False):
     """The frame's heights (F,) float32 at ``plan.footprint``: the sum over curves of
     ``S(l) taper window M(s)``, ``s`` across each curve.  ``skin_mapped_patch`` (P, 3)
-    float32: the skin at ``plan.patch_verts`` (see :func:`patch_skin`)."""
+    float32: the skin at ``plan.patch_verts`` (see :func:`patch_skin`).  ``formed``: every
+    wrinkle at its full height, ``M = 1`` (for a baked map), the skin unused."""
     if len(plan.footprint) == 0:
         return np.zeros(0, _F)
-    s = field.shrinkage(plan.shrink, skin_mapped_patch)[plan.entry_patch]
-    m = field.modulation(s, plan.rest_height)
+    if formed:
+        m = 1.0
+    else:
+        s = field.shrinkage(plan.shrink, skin_mapped_patch)[plan.entry_patch]
+        m = field.modulation(s, plan.rest_height)
     return np.bincount(plan.entry_slot, weights=plan.static * m, minlength=len(plan.footprint)).astype(_F)
 
 

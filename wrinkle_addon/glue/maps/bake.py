@@ -20,7 +20,7 @@ from ...core.maps import jimenez as wrinkle_maps
 from ...core.maps import uvmaps
 from ...core.muscles import system
 from ...core.muscles.waters import muscle_field
-from .. import faces, surface
+from .. import faces, registry, surface
 from ..errors import WrinkleError
 from ..muscles import landmarks as muscle_landmarks
 from ..muscles import objects as muscle_objects
@@ -122,28 +122,52 @@ def _layers(face, mode, muscles=None, surface=None):
     if mode not in ("MUSCLES", "POSE"):
         raise BakeError(f"Unknown bake mode {mode!r}")
     surface = surface or Surface(face, need_uv=False)
-    muscles = _muscles(face, muscles)
+    rest = surface.rest
+    muscles = muscle_objects.live_muscles(face) if muscles is None else list(muscles)
+    skin = evaluated_skin(face, len(rest)) if mode == "POSE" else rest
+    extra = _other_heights(face, surface, skin, formed=mode == "MUSCLES")
+    if not muscles and extra is None:
+        raise BakeError(f'"{face.name}" has no muscles and no wrinkle curves: add muscles (Add Facial '
+                        "Muscle Set) or wrinkle curves first")
     core = [muscle_objects.to_core(m, face) for m in muscles]
     strength = float(face.ewrinkles_face.strength)
-    rest = surface.rest
     plan = system.build_plan(rest, surface.edges, surface.tris, core,
-                             keep_out=muscle_landmarks.keep_out(face, rest))
+                             keep_out=muscle_landmarks.keep_out(face, rest)) if muscles else None
+    extra = np.zeros(len(rest), np.float32) if extra is None else extra
     if mode == "POSE":
-        skin = evaluated_skin(face, len(rest))
         contraction = np.array([m.ewrinkles_muscle.contraction for m in muscles], np.float64)
-        h = system.heights(plan, skin, contraction, strength)
-        if face.ewrinkles_face.enabled:  # the face shows the pull: with strength 0, the pull alone
+        h = system.heights(plan, skin, contraction, strength) + extra if muscles else extra
+        if face.ewrinkles_face.enabled and muscles:  # the face shows the pull (strength 0: the pull alone)
             skin = skin + system.evaluate(plan, skin, contraction, 0.0)
         skin = np.where(np.isfinite(skin), skin, rest).astype(np.float32)
         return np.asarray(h, np.float32)[:, None], np.zeros(len(rest), np.int64), np.array([-1]), skin
-    zone = _vertex_zone(face, surface, muscles)
+    zone = _vertex_zone(face, surface, muscles) if muscles else np.full(len(rest), -1)
     present, layer = np.unique(zone, return_inverse=True)
+    layer = layer.ravel()
     fields = np.zeros((len(rest), len(present)), np.float32)
     for i, ob in enumerate(muscles):
         keep = np.isin(present, _zones_of(ob))
         if keep.any():
             fields[:, keep] += system.formed_heights(plan, i, strength)[:, None]
-    return fields, layer.ravel(), present, rest
+    fields[np.arange(len(rest)), layer] += extra  # the other sources' wrinkles, in each vertex's zone
+    return fields, layer, present, rest
+
+
+def _other_heights(face, surface, skin, formed):
+    """The summed heights (N,) of the other geometric wrinkle sources (the wrinkle curves),
+    or None if none has any (``WrinkleSource.map_heights``)."""
+    mesh = registry.MeshArrays(surface.rest, surface.edges, surface.tris)
+    total = None
+    for source in registry.sources():
+        if not source.geometric or not source.active(face):
+            continue
+        try:
+            h = source.map_heights(face, mesh, skin, formed)
+        except WrinkleError as exc:
+            raise BakeError(str(exc)) from None
+        if h is not None:
+            total = h if total is None else total + h
+    return total
 
 
 def layer_weights(surface, layer, zone_of_layer, softness):
