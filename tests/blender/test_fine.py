@@ -129,7 +129,7 @@ def _eval_modulation(ng, s, r):
 
 
 def test_no_uv_map_disables_carving():
-    face = uv_face(with_uv=False)
+    uv_face(with_uv=False)
     assert not bpy.ops.wrinkle.carve_fine.poll()
 
 

@@ -15,7 +15,7 @@ from ..core.bando import curves as core_curves
 from ..glue import faces
 from ..glue import frame as pipeline
 from ..glue import surface as face_surface
-from ..glue.bando import curves
+from ..glue.bando import curves, shading
 from ..glue.bando import fine as fine_glue
 from ..glue.errors import WrinkleError
 from ..glue.progress import Progress
@@ -349,7 +349,29 @@ class WRINKLE_OT_fine_direction(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (WRINKLE_OT_carve_fine, WRINKLE_OT_remove_fine, WRINKLE_OT_fine_direction, WRINKLE_OT_add_curve,
-           WRINKLE_OT_curve_from_edges, WRINKLE_OT_curve_from_stroke, WRINKLE_OT_use_curve,
-           WRINKLE_OT_snap_curve, WRINKLE_OT_remove_curve)
+class WRINKLE_OT_add_pigment(bpy.types.Operator):
+    """Add the Skin Pigment node group (Bando 2002 eq. 6) in front of the face material's
+    Base Color: paint or animate melanin and hemoglobin (tan, blush, pallor)"""
+
+    bl_idname = "wrinkle.add_pigment"
+    bl_label = "Add Skin Pigment"
+    bl_options = {"REGISTER", "UNDO"}
+
+    poll = face_poll()
+
+    @guarded
+    def execute(self, context):
+        face = _face(context)
+        mat = face.active_material
+        if mat is None:
+            mat = bpy.data.materials.new(f"{face.name} Skin")
+            mat.use_nodes = True
+            face.data.materials.append(mat)
+        shading.add_pigment(mat)
+        return {"FINISHED"}
+
+
+classes = (WRINKLE_OT_add_pigment, WRINKLE_OT_carve_fine, WRINKLE_OT_remove_fine, WRINKLE_OT_fine_direction,
+           WRINKLE_OT_add_curve, WRINKLE_OT_curve_from_edges, WRINKLE_OT_curve_from_stroke,
+           WRINKLE_OT_use_curve, WRINKLE_OT_snap_curve, WRINKLE_OT_remove_curve)
 register, unregister = bpy.utils.register_classes_factory(classes)

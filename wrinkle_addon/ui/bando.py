@@ -60,6 +60,7 @@ def draw_face_fine(layout, context, face):
     row = layout.row(align=True)
     row.operator("wrinkle.carve_fine", icon="MOD_NOISE")
     row.operator("wrinkle.remove_fine", icon="TRASH", text="")
+    layout.operator("wrinkle.add_pigment", icon="COLOR")
     if fs.image_1 is not None:
         layout.label(text=f"{fs.furrows} furrows, {fs.coverage:.0%} covered", icon="INFO")
         col = layout.column()

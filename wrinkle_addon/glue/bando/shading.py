@@ -159,3 +159,32 @@ def ensure_pigment_group():
 def tag_layer(node):
     """Mark a material node as one of our normal layers (see ``glue.nodes.normal_input``)."""
     node[LAYER_TAG] = True
+
+
+PIGMENT_NODE = "Skin Pigment"
+
+
+def add_pigment(material):
+    """Put the ``Skin Pigment`` group in front of the material's Principled BSDF Base Color:
+    what fed it (a texture, or its colour) becomes the group's Base Color.  Returns the
+    group node.  Raises ShadingError."""
+    if material.library is not None:
+        raise ShadingError(f'The material "{material.name}" is linked and read-only: make it local')
+    material.use_nodes = True
+    nt = material.node_tree
+    bsdf = next((n for n in nt.nodes if n.type == "BSDF_PRINCIPLED"), None)
+    if bsdf is None:
+        raise ShadingError(f'The material "{material.name}" has no Principled BSDF')
+    node = nt.nodes.get(PIGMENT_NODE)
+    if node is None:
+        node = nt.nodes.new("ShaderNodeGroup")
+        node.name = node.label = PIGMENT_NODE
+        node.location = (bsdf.location.x - 300, bsdf.location.y)
+    node.node_tree = ensure_pigment_group()
+    base = bsdf.inputs["Base Color"]
+    if base.links and base.links[0].from_node != node:
+        nt.links.new(base.links[0].from_socket, node.inputs["Base Color"])
+    elif not base.links:
+        node.inputs["Base Color"].default_value = base.default_value
+    nt.links.new(node.outputs["Color"], base)
+    return node
