@@ -17,6 +17,7 @@ from ...core.bando import field, fine, mapped
 from .. import frame as frame_stage
 from .. import images, meshio, nodes, surface
 from ..errors import WrinkleError
+from ..muscles import landmarks
 from . import curves, shading
 
 GUIDE_ATTR = "ewrinkles_fine_guide"  # point vectors (face space): directions on vertices
@@ -188,6 +189,9 @@ def carve(context, face, progress):
                         "overlaps, or pick another UV map")
     m = mapped.mapped_mesh(s.tris, s.uv, len(s.rest))
     field1 = direction_field(context, face, s, m, step)
+    keep = landmarks.keep_out(face, s.rest)  # with the landmarks placed: no furrow on lids and lips
+    if keep is not None:
+        field1 = field1 * keep[m.vert_of][:, None]
     R = int(fs.resolution)
     results, field2 = fine.carve_pair(
         m.uv, m.tris, field1, fs.angle, R, fs.seed,
