@@ -25,3 +25,15 @@ def squash_vertical(rest, factor, top=0.08):
     skin = rest.copy()
     skin[:, 2] = top - (top - skin[:, 2]) * factor
     return skin
+
+
+def uv_grid(n):
+    """An n x n vertex grid over the unit UV square: uv (V, 2), triangles (T, 3)."""
+    c = np.linspace(0.0, 1.0, n)
+    u, v = np.meshgrid(c, c)
+    uv = np.stack([u.ravel(), v.ravel()], 1)
+    idx = np.arange(n * n).reshape(n, n)
+    quads = np.stack([idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(),
+                      idx[1:, :-1].ravel()], 1)
+    tris = mesh.fan_triangles(quads.ravel(), np.arange(len(quads)) * 4, np.full(len(quads), 4))
+    return uv, tris

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from wrinkle_addon.core import mesh
+from tests.core.meshes import uv_grid
 from wrinkle_addon.core.bando import curves
 
 _trapz = np.trapezoid if hasattr(np, "trapezoid") else np.trapz
@@ -13,13 +13,7 @@ D, W = 0.002, 0.004  # 2 mm deep, 4 mm wide (the paper's face wrinkles: 2-12 mm)
 
 def _flat(n=201, sx=SCALE, sy=SCALE):
     """An n x n grid over the UV square, flat in 3-D with ``x = u sx``, ``y = v sy``."""
-    c = np.linspace(0.0, 1.0, n)
-    u, v = np.meshgrid(c, c)
-    uv = np.stack([u.ravel(), v.ravel()], 1)
-    idx = np.arange(n * n).reshape(n, n)
-    quads = np.stack([idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(),
-                      idx[1:, :-1].ravel()], 1)
-    tris = mesh.fan_triangles(quads.ravel(), np.arange(len(quads)) * 4, np.full(len(quads), 4))
+    uv, tris = uv_grid(n)
     pos = np.stack([uv[:, 0] * sx, uv[:, 1] * sy, np.zeros(len(uv))], 1)
     return uv, tris, pos
 

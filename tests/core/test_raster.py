@@ -5,7 +5,7 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from tests.core.meshes import grid
+from tests.core.meshes import grid, uv_grid
 from wrinkle_addon.core import mesh
 from wrinkle_addon.core import raster as uvbake
 from wrinkle_addon.core.maps import jimenez as wrinkle_maps
@@ -25,18 +25,6 @@ def _inside(u, v, tri):
     d1 = (x2 - x1) * (v - y1) - (y2 - y1) * (u - x1)
     d2 = (x0 - x2) * (v - y2) - (y0 - y2) * (u - x2)
     return ((d0 > 0) & (d1 > 0) & (d2 > 0)) | ((d0 < 0) & (d1 < 0) & (d2 < 0))
-
-
-def _uv_grid(n):
-    """An n x n vertex grid over the unit UV square: uv (V, 2), triangles (T, 3)."""
-    c = np.linspace(0.0, 1.0, n)
-    u, v = np.meshgrid(c, c)
-    uv = np.stack([u.ravel(), v.ravel()], 1)
-    idx = np.arange(n * n).reshape(n, n)
-    quads = np.stack([idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(),
-                      idx[1:, :-1].ravel()], 1)
-    tris = mesh.fan_triangles(quads.ravel(), np.arange(len(quads)) * 4, np.full(len(quads), 4))
-    return uv, tris
 
 
 def test_single_triangle_covers_exactly_the_pixels_whose_centres_are_inside():
@@ -71,7 +59,7 @@ def test_interpolation_is_exact_for_linear_functions():
 def test_a_mesh_is_covered_without_gaps_or_double_coverage():
     R = 128
     rng = np.random.default_rng(7)
-    uv, tris = _uv_grid(9)
+    uv, tris = uv_grid(9)
     inner = (uv > 0) & (uv < 1)
     uv = uv + np.where(inner, rng.uniform(-0.04, 0.04, uv.shape), 0.0)  # jittered, shared edges
     corners = uv[tris]
@@ -92,7 +80,7 @@ def test_a_mesh_is_covered_without_gaps_or_double_coverage():
 
 
 def test_chunking_gives_the_same_image():
-    uv, tris = _uv_grid(12)
+    uv, tris = uv_grid(12)
     vals = np.stack([uv[:, 0] * 3, uv[:, 1] - 1], 1)[tris]
     big = uvbake.rasterize(uv[tris], vals, 96)
     small = uvbake.rasterize(uv[tris], vals, 96, chunk_pixels=37)
@@ -134,7 +122,7 @@ def test_padding_fills_a_seam_band_with_island_values():
 def _plane(n=257, size=0.2):
     """A flat square of side ``size`` with the UV square mapped onto it (x = u size,
     y = v size, normal +Z): tangent = +X, bitangent = +Y."""
-    uv, tris = _uv_grid(n)
+    uv, tris = uv_grid(n)
     pos = np.stack([uv[:, 0] * size, uv[:, 1] * size, np.zeros(len(uv))], 1)
     return uv, pos, tris
 
@@ -278,7 +266,7 @@ def test_islands_that_touch_in_uv_do_not_mix_their_heights():
 
 
 def test_uv_islands_of_a_grid_and_two_copies():
-    uv, tris = _uv_grid(6)
+    uv, tris = uv_grid(6)
     a = uvbake.uv_islands(uv[tris])
     assert len(np.unique(a)) == 1
     both = np.concatenate([uv[tris] * 0.4, uv[tris] * 0.4 + 0.5])

@@ -67,6 +67,30 @@ class Builder:
         return self.vmath("MULTIPLY_ADD", color, (2.0, 2.0, 2.0), (-1.0, -1.0, -1.0))
 
 
+def ensure_node(nt, name, kind, location):
+    """The node named ``name`` of type ``kind`` in tree ``nt``, created at ``location`` (and
+    labelled with its name) if missing or of another type."""
+    node = nt.nodes.get(name)
+    if node is not None and node.bl_idname != kind:
+        nt.nodes.remove(node)
+        node = None
+    if node is None:
+        node = nt.nodes.new(kind)
+        node.name = node.label = name
+        node.location = location
+    return node
+
+
+def principled(nt):
+    """The material's Principled BSDF: the one the active output shows, else the first."""
+    bsdfs = [n for n in nt.nodes if n.type == "BSDF_PRINCIPLED"]
+    for out in (n for n in nt.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output):
+        linked = [lk.from_node for lk in out.inputs["Surface"].links]
+        if linked and linked[0].type == "BSDF_PRINCIPLED":
+            return linked[0]
+    return bsdfs[0] if bsdfs else None
+
+
 LAYER_TAG = "ewrinkles_normal_layer"
 
 

@@ -214,22 +214,6 @@ def carve(context, face, progress):
 
 
 # --------------------------------------------------------------------------- the material
-def _principled(nt):
-    return next((n for n in nt.nodes if n.type == "BSDF_PRINCIPLED"), None)
-
-
-def _node(nt, name, kind, location):
-    node = nt.nodes.get(name)
-    if node is not None and node.bl_idname != kind:
-        nt.nodes.remove(node)
-        node = None
-    if node is None:
-        node = nt.nodes.new(kind)
-        node.name = node.label = name
-        node.location = location
-    return node
-
-
 def _material(face):
     fs = settings(face)
     mat = fs.material or face.active_material
@@ -240,7 +224,7 @@ def _material(face):
     if mat.library is not None:
         raise FineError(f'The material "{mat.name}" is linked and read-only: make it local')
     mat.use_nodes = True
-    if _principled(mat.node_tree) is None:
+    if nodes.principled(mat.node_tree) is None:
         raise FineError(f'The material "{mat.name}" has no Principled BSDF for the fine wrinkles to bump')
     return mat
 
@@ -251,12 +235,12 @@ def setup_material(face):
     fs = settings(face)
     mat = _material(face)
     nt = mat.node_tree
-    bsdf = _principled(nt)
+    bsdf = nodes.principled(nt)
     group = shading.ensure_fine_group()
     x, y = bsdf.location.x, bsdf.location.y
     node = nt.nodes.get(GROUP_NODE)
     fresh = node is None
-    node = _node(nt, GROUP_NODE, "ShaderNodeGroup", (x - 250, y - 650))
+    node = nodes.ensure_node(nt, GROUP_NODE, "ShaderNodeGroup", (x - 250, y - 650))
     node.node_tree = group
     shading.tag_layer(node)
     if fresh or not node.outputs["Normal"].links:
@@ -265,10 +249,10 @@ def setup_material(face):
         if below is not None and below.node != node:
             nt.links.new(below, node.inputs["Normal"])
         nt.links.new(node.outputs["Normal"], target)
-    uv = _node(nt, UV_NODE, "ShaderNodeUVMap", (x - 900, y - 650))
+    uv = nodes.ensure_node(nt, UV_NODE, "ShaderNodeUVMap", (x - 900, y - 650))
     uv.uv_map = fs.uv_map
     for k, name in enumerate(IMAGE_NODES):
-        tex = _node(nt, name, "ShaderNodeTexImage", (x - 650, y - 550 - 280 * k))
+        tex = nodes.ensure_node(nt, name, "ShaderNodeTexImage", (x - 650, y - 550 - 280 * k))
         tex.image = getattr(fs, f"image_{k + 1}")
         tex.interpolation = "Cubic"  # a smooth bump from the carved pixels
         nt.links.new(uv.outputs["UV"], tex.inputs["Vector"])

@@ -23,7 +23,7 @@ light absorbed by melanin ``m`` and hemoglobin ``h``, clamped to [0, 1].
 import bpy
 
 from ..errors import WrinkleError
-from ..nodes import LAYER_TAG, Builder
+from ..nodes import LAYER_TAG, Builder, principled
 
 FINE_GROUP = "Fine Wrinkles"
 PIGMENT_GROUP = "Skin Pigment"
@@ -172,7 +172,7 @@ def add_pigment(material):
         raise ShadingError(f'The material "{material.name}" is linked and read-only: make it local')
     material.use_nodes = True
     nt = material.node_tree
-    bsdf = next((n for n in nt.nodes if n.type == "BSDF_PRINCIPLED"), None)
+    bsdf = principled(nt)
     if bsdf is None:
         raise ShadingError(f'The material "{material.name}" has no Principled BSDF')
     node = nt.nodes.get(PIGMENT_NODE)

@@ -70,15 +70,6 @@ def table(maps):
 # checks
 
 
-def _principled(nt):
-    bsdfs = [n for n in nt.nodes if n.type == "BSDF_PRINCIPLED"]
-    for out in (n for n in nt.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output):
-        linked = [lk.from_node for lk in out.inputs["Surface"].links]
-        if linked and linked[0].type == "BSDF_PRINCIPLED":
-            return linked[0]
-    return bsdfs[0] if bsdfs else None
-
-
 def _image_problem(label, img, square=True, alpha=False):
     if img is None:
         return None
@@ -111,7 +102,7 @@ def check(face, material=None):
         return f'"{face.name}" has no material: add one with a Principled BSDF'
     if mat.library is not None:
         return f'The material "{mat.name}" is linked and read-only: make it local'
-    if mat.node_tree is None or _principled(mat.node_tree) is None:
+    if mat.node_tree is None or nodes.principled(mat.node_tree) is None:
         return f'The material "{mat.name}" has no Principled BSDF to feed'
     wrinkle_maps = [(f"Wrinkle map {k + 1}", getattr(maps, prop)) for k, prop in enumerate(MAP_PROPS)]
     for label, img, alpha, square in (
@@ -139,18 +130,6 @@ def check(face, material=None):
 # wiring
 
 
-def _node(nt, name, kind, location):
-    node = nt.nodes.get(name)
-    if node is not None and node.bl_idname != kind:
-        nt.nodes.remove(node)
-        node = None
-    if node is None:
-        node = nt.nodes.new(kind)
-        node.name = node.label = name
-        node.location = location
-    return node
-
-
 def _existing_base(nt, bsdf):
     """The image of a Normal Map node already feeding the BSDF's normal, if any."""
     for lk in bsdf.inputs["Normal"].links:
@@ -174,7 +153,7 @@ def setup(face, material=None, packed=None):
     maps = face.ewrinkles_face.maps
     mat = material or maps.material or face.active_material
     nt = mat.node_tree
-    bsdf = _principled(nt)
+    bsdf = nodes.principled(nt)
     blend_group = mapgroup.ensure_blend_group(n_maps(maps))
     target = nodes.normal_input(nt, bsdf)  # the BSDF's, or the end of a chain of our layers
     old = [(lk.from_node.name, lk.from_socket.identifier) for lk in target.links
@@ -187,13 +166,13 @@ def setup(face, material=None, packed=None):
                                                       "ShaderNodeTree")
 
     x, y = bsdf.location.x, bsdf.location.y
-    blend = _node(nt, BLEND_NODE, "ShaderNodeGroup", (x - 300, y - 400))
+    blend = nodes.ensure_node(nt, BLEND_NODE, "ShaderNodeGroup", (x - 300, y - 400))
     blend.node_tree = blend_group
     if old and "wrinkle_previous_normal" not in blend:
         blend["wrinkle_previous_normal"] = list(old[0])
-    weights = _node(nt, WEIGHTS_NODE, "ShaderNodeGroup", (x - 600, y - 900))
+    weights = nodes.ensure_node(nt, WEIGHTS_NODE, "ShaderNodeGroup", (x - 600, y - 900))
     weights.node_tree = maps.weights_group
-    uv = _node(nt, UV_NODE, "ShaderNodeUVMap", (x - 1100, y - 400))
+    uv = nodes.ensure_node(nt, UV_NODE, "ShaderNodeUVMap", (x - 1100, y - 400))
     uv.uv_map = maps.uv_map
     for i, (prop, name, _socket) in enumerate(IMAGE_NODES):
         img = getattr(maps, prop)
@@ -202,7 +181,7 @@ def setup(face, material=None, packed=None):
             if node is not None:
                 nt.nodes.remove(node)
             continue
-        node = _node(nt, name, "ShaderNodeTexImage", (x - 850, y - 250 - 280 * i))
+        node = nodes.ensure_node(nt, name, "ShaderNodeTexImage", (x - 850, y - 250 - 280 * i))
         node.image = img
         # every one of them is data; a mask's alpha is zone 4 / 8, not coverage
         mask = prop.startswith("mask")
@@ -216,7 +195,7 @@ def setup(face, material=None, packed=None):
     normal = blend.outputs["Normal"]
     nmap = nt.nodes.get(NORMAL_NODE)
     if maps.uv_map:  # the shared group's Normal Map node has the render-active UV map's tangents
-        nmap = _node(nt, NORMAL_NODE, "ShaderNodeNormalMap", (x - 150, y - 600))
+        nmap = nodes.ensure_node(nt, NORMAL_NODE, "ShaderNodeNormalMap", (x - 150, y - 600))
         nmap.space = "TANGENT"
         nmap.uv_map = maps.uv_map
         nt.links.new(blend.outputs["Color"], nmap.inputs["Color"])
@@ -277,7 +256,7 @@ def remove(face):
             node = nt.nodes.get(name)
             if node is not None:
                 nt.nodes.remove(node)
-        bsdf = _principled(nt)
+        bsdf = nodes.principled(nt)
         if prev and bsdf is not None and prev[0] in nt.nodes:
             src = next((s for s in nt.nodes[prev[0]].outputs if s.identifier == prev[1]), None)
             if src is not None:
