@@ -82,8 +82,8 @@ def setup_cycles(scene, resolution=(512, 512), samples=32, denoise=None):
 
 
 def _enable_nodes(id_block):
-    # Nodes are always on in 5.x, where setting use_nodes is deprecated.
-    if not id_block.use_nodes:
+    # Nodes are always on in 5.x, where use_nodes is deprecated (reading it warns too).
+    if bpy.app.version < (5, 0, 0) and not id_block.use_nodes:
         id_block.use_nodes = True
 
 

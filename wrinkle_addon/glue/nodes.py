@@ -1,6 +1,15 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Building shader node groups in code: the one helper every method's node groups use."""
 
+import bpy
+
+
+def use_nodes(id_block):
+    """Switch on a material's nodes: needed before Blender 5, where they are always on and
+    ``use_nodes`` is deprecated (reading it warns too)."""
+    if bpy.app.version < (5, 0, 0) and not id_block.use_nodes:
+        id_block.use_nodes = True
+
 
 class Builder:
     """Small helpers to add shader math nodes in a column layout."""

@@ -365,7 +365,6 @@ class WRINKLE_OT_add_pigment(bpy.types.Operator):
         mat = face.active_material
         if mat is None:
             mat = bpy.data.materials.new(f"{face.name} Skin")
-            mat.use_nodes = True
             face.data.materials.append(mat)
         shading.add_pigment(mat)
         return {"FINISHED"}

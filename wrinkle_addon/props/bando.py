@@ -111,6 +111,13 @@ class WrinkleFineSettings(bpy.types.PropertyGroup):
         ],
         default="FACE",
     )
+    base_magnitude: FloatProperty(
+        name="Base Strength",
+        description="Magnitude m of the directions from the face where no pose compresses the "
+        "skin (0-1): fine furrows cover all the skin, deeper, longer and straighter where it "
+        "folds (Bando 2002 eq. 1)",
+        default=0.5, min=0.0, max=1.0, subtype="FACTOR",
+    )
     angle: FloatProperty(
         name="Second Direction",
         description="Angle of the second family of furrows to the first: fine furrows run in two "

@@ -54,6 +54,8 @@ def draw_face_fine(layout, context, face):
     if fs.field_source == "GUIDES":
         col.prop(fs, "reference_length")
         col.operator("wrinkle.fine_direction", icon="ORIENTATION_NORMAL")
+    else:
+        col.prop(fs, "base_magnitude")
     col.prop(fs, "angle")
     col.prop(fs, "resolution")
     col.prop(fs, "seed")

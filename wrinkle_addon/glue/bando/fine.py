@@ -88,7 +88,7 @@ def direction_field(context, face, s, m, step):
                             "or give the directions yourself (Directions: From Guides)")
         step(f"Directions from {len(poses)} pose(s)")
         return field.deformation_field(pos, [m.positions(p) for p in poses], m.uv, m.tris,
-                                       fill_threshold=0.05, floor=0.25)
+                                       fill_threshold=0.05, floor=fs.base_magnitude)
     fixed, vectors = [], []
     guide = face.data.attributes.get(GUIDE_ATTR)
     if guide is not None and guide.domain == "POINT" and guide.data_type == "FLOAT_VECTOR":
@@ -219,11 +219,10 @@ def _material(face):
     mat = fs.material or face.active_material
     if mat is None:
         mat = bpy.data.materials.new(f"{face.name} Skin")
-        mat.use_nodes = True
         face.data.materials.append(mat)
     if mat.library is not None:
         raise FineError(f'The material "{mat.name}" is linked and read-only: make it local')
-    mat.use_nodes = True
+    nodes.use_nodes(mat)
     if nodes.principled(mat.node_tree) is None:
         raise FineError(f'The material "{mat.name}" has no Principled BSDF for the fine wrinkles to bump')
     return mat

@@ -23,7 +23,7 @@ light absorbed by melanin ``m`` and hemoglobin ``h``, clamped to [0, 1].
 import bpy
 
 from ..errors import WrinkleError
-from ..nodes import LAYER_TAG, Builder, principled
+from ..nodes import LAYER_TAG, Builder, principled, use_nodes
 
 FINE_GROUP = "Fine Wrinkles"
 PIGMENT_GROUP = "Skin Pigment"
@@ -170,7 +170,7 @@ def add_pigment(material):
     group node.  Raises ShadingError."""
     if material.library is not None:
         raise ShadingError(f'The material "{material.name}" is linked and read-only: make it local')
-    material.use_nodes = True
+    use_nodes(material)
     nt = material.node_tree
     bsdf = principled(nt)
     if bsdf is None:
