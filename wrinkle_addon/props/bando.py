@@ -104,7 +104,8 @@ class WrinkleFineSettings(bpy.types.PropertyGroup):
         description="Where the wrinkle directions come from",
         items=[
             ("FACE", "From the Face", "Wrinkles run across the direction in which the skin is most "
-             "compressed by the face's shape keys and its current pose (muscles, bones)"),
+             "compressed by the face's shape keys, its muscles (each contracted alone) and its "
+             "current pose (bones)"),
             ("GUIDES", "From Guides", "Directions you give: annotation strokes on the face, selected "
              "curve objects, and directions set on selected vertices (Set Direction); interpolated "
              "over the face (Bando 2002 §5.1)"),

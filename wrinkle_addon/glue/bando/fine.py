@@ -14,10 +14,12 @@ import numpy as np
 
 from ...core import raster
 from ...core.bando import field, fine, mapped
+from ...core.muscles import system
 from .. import frame as frame_stage
 from .. import images, meshio, nodes, surface
 from ..errors import WrinkleError
 from ..muscles import landmarks
+from ..muscles import objects as muscle_objects
 from . import curves, shading
 
 GUIDE_ATTR = "ewrinkles_fine_guide"  # point vectors (face space): directions on vertices
@@ -39,9 +41,28 @@ def settings(face):
 
 
 # --------------------------------------------------------------------------- the fields
-def _poses(face, rest):
-    """The face's deformations: each shape key at full value and the current pose."""
-    poses = list(meshio.shape_keys(face.data, len(rest)).values())
+def _muscle_poses(face, s):
+    """The rest face pulled by each of its pulling muscles contracted alone (Waters' pull,
+    no wrinkles)."""
+    pulling = [m for m in muscle_objects.live_muscles(face) if not m.ewrinkles_muscle.wrinkles_only]
+    if not pulling:
+        return []
+    core = [muscle_objects.to_core(m, face) for m in pulling]
+    plan = system.build_plan(s.rest, s.edges, s.tris, core, keep_out=landmarks.keep_out(face, s.rest))
+    rest = s.rest.astype(np.float32)
+    poses = []
+    for i in range(len(core)):  # a few dozen muscles
+        contraction = np.zeros(len(core))
+        contraction[i] = 1.0
+        poses.append(rest + system.evaluate(plan, rest, contraction, 0.0))
+    return poses
+
+
+def _poses(face, s):
+    """The face's deformations: each shape key at full value, each muscle contracted alone,
+    and the current pose."""
+    rest = s.rest
+    poses = list(meshio.shape_keys(face.data, len(rest)).values()) + _muscle_poses(face, s)
     skin = surface.evaluated_skin(face, len(rest))
     if skin is not None:
         poses.append(skin)
@@ -82,9 +103,9 @@ def direction_field(context, face, s, m, step):
     fs = settings(face)
     pos = m.positions(s.rest)
     if fs.field_source == "FACE":
-        poses = _poses(face, s.rest)
+        poses = _poses(face, s)
         if not poses:
-            raise FineError(f'Nothing deforms "{face.name}": add shape keys or pose it (muscles, bones), '
+            raise FineError(f'Nothing deforms "{face.name}": add shape keys, muscles or a pose (bones), '
                             "or give the directions yourself (Directions: From Guides)")
         step(f"Directions from {len(poses)} pose(s)")
         return field.deformation_field(pos, [m.positions(p) for p in poses], m.uv, m.tris,
