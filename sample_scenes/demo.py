@@ -3,9 +3,11 @@
     python sample_scenes/demo.py [--out out] [--size 512] [--samples 32] [--quick]
 
 For each scene (the procedural head, the forehead patch, and, when
-../shared/data/ict_head.npz exists, the scanned ICT head with geometric wrinkles and again
-with generated wrinkle maps) it saves the .blend, renders each expression frame twice -
-wrinkle strength 0 (the same deformation, no wrinkles) and 1 - and writes
+../shared/data/ict_head.npz exists, the scanned ICT head with geometric wrinkles, its
+forehead with wrinkle curves (Bando et al. 2002: three forehead lines raised by the brow
+raise; the row above shows the muscles' wrinkles of the same pose, Surprise) and the head
+again with generated wrinkle maps) it saves the .blend, renders each expression frame twice -
+wrinkles off (the same deformation, no wrinkles) and on - and writes
 ``out/contact_sheet.png``: one row per scene, each expression as a without/with pair,
 labelled with the scene's name and the expression's (sample_scenes/lib/labels.py), and
 ``out/before_after.png``: Surprise and Frowning of the ICT head (or the procedural head),
@@ -34,7 +36,8 @@ import numpy as np  # noqa: E402
 if addon_utils.enable("wrinkle_addon", default_set=True) is None:
     raise SystemExit("demo: the wrinkle_addon add-on did not load (see the message above)")
 
-from sample_scenes import forehead_patch, head, scanned_head, scanned_head_maps  # noqa: E402
+from sample_scenes import forehead_curves, forehead_patch, head, scanned_head, scanned_head_maps  # noqa: E402
+from sample_scenes import hand as hand_scene  # noqa: E402
 from sample_scenes.lib import labels, scene_setup  # noqa: E402
 
 _T0 = time.perf_counter()
@@ -139,9 +142,11 @@ def main(argv=None):
             ("head", head.build, geometric_toggle)]
     if scanned_head.available():
         jobs.append(("scanned_head", scanned_head.build, geometric_toggle))
+        jobs.append(("forehead_curves", forehead_curves.build, forehead_curves.toggle))
         jobs.append(("scanned_head_maps", scanned_head_maps.build, scanned_head_maps.toggle))
     else:
         log(f"skipping the ICT head: {scanned_head.DATA} not found")
+    jobs.append(("hand", hand_scene.build, hand_scene.toggle))  # fine wrinkles (Bando 2002 Fig. 15)
     rows, captions = [], []
     for i, (name, builder, toggle) in enumerate(jobs, 1):
         log(f"scene {i}/{len(jobs)}: {name}")

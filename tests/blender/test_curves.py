@@ -181,3 +181,28 @@ def test_bake_wrinkle_map_bakes_the_curves():
     assert formed.min() < posed.min() < 0.0
     pd = mapbake.bake_wrinkle_map(face, 128, "MUSCLES")
     assert np.abs(pd[..., :2] - 0.5).max() > 0.05  # the map shows the furrow's slopes
+
+
+def test_an_animated_enable_switches_the_wrinkle_frame_by_frame():
+    """Viewport frames: a curve keyed off, then on, appears on the frame it is enabled."""
+    face = uv_face()
+    ob = add_curve(face)
+    s = ob.ewrinkles_curve
+    s.enabled = False
+    s.keyframe_insert("enabled", frame=1)
+    s.enabled = True
+    s.keyframe_insert("enabled", frame=5)
+    shown = {}
+    for f in range(1, 8):
+        bpy.context.scene.frame_set(f)
+        bpy.context.view_layer.update()
+        shown[f] = float(np.abs(scenes.evaluated_positions(face) - _skin(face)).max())
+    assert shown[1] == 0.0 and shown[4] == 0.0
+    assert shown[5] > 1e-5 and shown[7] > 1e-5
+
+
+def _skin(face):
+    ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    out = np.empty((len(ev.vertices), 3), np.float32)
+    ev.attributes["wrinkle_skin"].data.foreach_get("vector", out.ravel())
+    return out

@@ -53,7 +53,9 @@ class CurveSource(WrinkleSource):
 
     def build(self, face, mesh, in_scene):
         live = curves.live_curves(face, in_scene)
-        uids = frozenset(c.session_uid for c in live)
+        # every curve of the list, enabled or not: enabling one must be noticed (unchanged)
+        uids = frozenset(r.object.session_uid for r in face.ewrinkles_face.wrinkle_curves.items
+                         if r.object is not None and r.object.session_uid in in_scene)
         if not live:
             return _Static(face, uids=uids)
         try:

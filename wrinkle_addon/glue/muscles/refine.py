@@ -75,8 +75,10 @@ def _close_single_splits(bm, n_old):
         bmesh.utils.face_split(f, v, loop.link_loop_next.link_loop_next.vert)
 
 
-def _pass(me, split_pairs, split_index):
-    """One bisection pass over the edges ``split_index``; the new points placed smoothly."""
+def bisect_pass(me, split_pairs, split_index):
+    """One bisection pass over the edges ``split_index`` (``split_pairs`` their vertex pairs,
+    from ``core.muscles.refinement.split_edges``); the new points placed smoothly.  Public
+    for refinements with other criteria (a scene refining around wrinkle curves)."""
     n_old = len(me.vertices)
     corner, starts, sizes = meshio.read_polygons(me)
     shapes = _read_shapes(me)
@@ -120,6 +122,6 @@ def refine(face, muscles, factor=4.0, max_vertices=1_000_000, progress=None):
         split, grid_quads = refinement.split_edges(rest, edges, corner, starts, sizes, need)
         if len(rest) + len(split) + grid_quads > max_vertices:
             return Result(i, f"Stopped: refining further would exceed {max_vertices} vertices")
-        _pass(me, edges[split], split)
+        bisect_pass(me, edges[split], split)
     return Result(MAX_PASSES, f"Stopped after {MAX_PASSES} passes: {len(need)} edges are still "
                               f"longer than a {factor:g}th of their half cycle")
