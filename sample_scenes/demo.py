@@ -6,7 +6,9 @@ For each scene (the procedural head, the forehead patch, and, when
 ../shared/data/ict_head.npz exists, the scanned ICT head with geometric wrinkles, its
 forehead with wrinkle curves (Bando et al. 2002: three forehead lines raised by the brow
 raise; the row above shows the muscles' wrinkles of the same pose, Surprise) and the head
-again with generated wrinkle maps) it saves the .blend, renders each expression frame twice -
+again with generated wrinkle maps, and the back of a wrist with fine wrinkles (Bando et al.
+2002, Fig. 15: deeper where the bend folds the skin, fainter where it stretches)) it saves
+the .blend, renders each expression frame twice -
 wrinkles off (the same deformation, no wrinkles) and on - and writes
 ``out/contact_sheet.png``: one row per scene, each expression as a without/with pair,
 labelled with the scene's name and the expression's (sample_scenes/lib/labels.py), and
