@@ -24,7 +24,7 @@ def _curve(y=0.5, d=0.001, w=0.002):
 
 
 def _heights(plan, m, skin):
-    return large.heights(plan, large.patch_skin(plan, m, skin.astype(np.float32)))
+    return large.heights(plan, skin.astype(np.float32))
 
 
 def test_rest_heights_are_r_times_the_profile():
@@ -43,7 +43,7 @@ def test_compression_across_the_curve_deepens_it_and_along_it_does_not():
     plan = large.build(m, rest, [_curve()], [0.0])
     assert np.abs(_heights(plan, m, rest)).max() < 1e-9  # r = 0: nothing at rest (float32 rounding)
     across = rest * [1.0, 0.8, 1.0]  # the skin shrinks by 20 % across the (horizontal) curve
-    s = large.shrinkage_at(plan, large.patch_skin(plan, m, across.astype(np.float32)))
+    s = large.shrinkage_at(plan, across.astype(np.float32))
     np.testing.assert_allclose(s, 0.2, atol=1e-5)
     h = _heights(plan, m, across)
     assert h.min() == pytest.approx(-0.2 * 0.001, rel=1e-3)  # M(0.2) = 0.2 for r = 0
@@ -81,3 +81,17 @@ def test_a_seam_vertex_gets_the_average_of_its_copies():
     h = dict(zip(plan.footprint, _heights(plan, m, rest)))
     seam = np.flatnonzero((np.abs(rest[:, 0] - 0.05) < 1e-9) & (np.abs(rest[:, 1] - 0.05) < 1e-9))[0]
     assert h[seam] == pytest.approx(-0.001, rel=1e-3)  # not -0.002: the two copies are averaged
+
+
+@pytest.mark.parametrize("r", [0.0, 0.25, 0.5, 1.0])
+@pytest.mark.parametrize("factor", [0.7, 1.0, 1.3])
+def test_the_frame_modulation_is_eq5(r, factor):
+    from wrinkle_addon.core.bando import field
+
+    rest, _tris, m = _grid(41)
+    plan = large.build(m, rest, [_curve()], [r])
+    skin = (rest * [1.0, factor, 1.0]).astype(np.float32)
+    s = large.shrinkage_at(plan, skin)
+    expected = np.bincount(plan.entry_slot, weights=plan.static * field.modulation(s.astype(np.float64), r),
+                           minlength=len(plan.footprint))
+    np.testing.assert_allclose(large.heights(plan, skin), expected, atol=1e-9)

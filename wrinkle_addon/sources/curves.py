@@ -19,15 +19,13 @@ TOLERANCE_WIDTHS, TOLERANCE_FACE = 4.0, 0.02
 
 
 class _Static:
-    __slots__ = ("plan", "mapped", "footprint", "uids", "n_items", "patch_mesh_verts", "problem")
+    __slots__ = ("plan", "mapped", "footprint", "uids", "n_items", "problem")
 
     def __init__(self, face, plan=None, mapped_mesh=None, uids=frozenset(), problem=""):
         self.plan, self.mapped, self.uids, self.problem = plan, mapped_mesh, uids, problem
         self.n_items = len(face.ewrinkles_face.wrinkle_curves.items)
         verts = plan.footprint if plan is not None else np.zeros(0, np.int64)
         self.footprint = combine.Footprint(height_verts=verts)
-        self.patch_mesh_verts = (mapped_mesh.vert_of[plan.patch_verts] if plan is not None
-                                 else np.zeros(0, np.int64))
 
 
 class CurveSource(WrinkleSource):
@@ -80,7 +78,7 @@ class CurveSource(WrinkleSource):
     def contribute(self, face, static, skin, inputs):
         if static.plan is None or len(static.footprint.height_verts) == 0:
             return combine.Contribution()
-        return combine.Contribution(height=large.heights(static.plan, skin[static.patch_mesh_verts]))
+        return combine.Contribution(height=large.heights(static.plan, skin))
 
     def map_heights(self, face, mesh, skin, formed):
         static = self.build(face, mesh, {o.session_uid for o in bpy.context.scene.objects})
@@ -92,7 +90,7 @@ class CurveSource(WrinkleSource):
         if formed:  # every wrinkle at its full height: M(s) = 1
             out[static.footprint.height_verts] = large.heights(static.plan, None, formed=True)
         else:
-            out[static.footprint.height_verts] = large.heights(static.plan, skin[static.patch_mesh_verts])
+            out[static.footprint.height_verts] = large.heights(static.plan, skin)
         return out
 
     def problems(self, face, static):

@@ -741,3 +741,68 @@ def modulation(s, r):
     k = np.where(pos, 1.0 / np.where(pos, r, 1.0) - 1.0, 0.0)
     neg = np.where(pos, r * np.exp(k * np.minimum(s, 0.0)), 0.0)
     return np.where(s >= 0, (1.0 - r) * s + r, neg)
+
+
+# --------------------------------------------------------------------------- many at once
+@dataclass(frozen=True)
+class EdgeSlots:
+    """Rows of one or more :class:`ShrinkagePlan` gathered for a per-frame evaluation on the
+    face's own vertices (see :func:`edge_slots`): the 3-D edges the rows use, listed once
+    (``ends``: two (E,) contiguous intp arrays of mesh vertices), and per row its four
+    edges (``slot_edge`` (4, R)), coefficients (``slot_coef`` (4, R) float32), ``share``
+    (R,) float32 and ``none`` (R,) bool (s = 0).  ``offsets`` (P + 1,): part p owns rows
+    ``offsets[p]:offsets[p + 1]``."""
+
+    ends: tuple
+    slot_edge: np.ndarray
+    slot_coef: np.ndarray
+    share: np.ndarray
+    none: np.ndarray
+    offsets: np.ndarray
+
+
+def edge_slots(parts, n_verts):
+    """The :class:`EdgeSlots` of ``parts``, each ``(plan, rows, vert_of)``: a
+    :class:`ShrinkagePlan`, the plan's vertices to evaluate (R_p,) (-1: none, s = 0) and the
+    mesh vertex (of ``n_verts``) of each of the plan's vertices.  Each edge is measured once
+    a frame however many rows and parts use it: fancy row gathers of positions are the
+    cost, and two rows of the same vertex (two fields, two curves) share its edges."""
+    keys, coefs, shares, nones, counts = [], [], [], [], []
+    for plan, rows, vert_of in parts:
+        rows = np.asarray(rows, np.int64)
+        has = rows >= 0
+        r = np.where(has, rows, 0)
+        vert_of = np.asarray(vert_of, np.int64)
+        here = vert_of[r]
+        far = vert_of[plan.slot_ends[:, r]]  # (4, R)
+        keys.append(np.minimum(here, far) * n_verts + np.maximum(here, far))
+        coefs.append(plan.slot_coef[:, r])
+        none = np.zeros(plan.n_verts, bool)
+        none[plan.none] = True
+        shares.append(np.where(has, plan.share[r], 0.0))
+        nones.append(none[r] | ~has)
+        counts.append(len(rows))
+    if not keys:
+        raise ValueError("edge_slots needs at least one shrinkage plan")
+    keys = np.concatenate(keys, axis=1)
+    unique, slot_edge = np.unique(keys, return_inverse=True)
+    offsets = np.zeros(len(counts) + 1, np.int64)
+    np.cumsum(counts, out=offsets[1:])
+    return EdgeSlots(((unique // n_verts).astype(np.intp), (unique % n_verts).astype(np.intp)),
+                     slot_edge.reshape(keys.shape).astype(np.intp),
+                     np.concatenate(coefs, axis=1).astype(np.float32),
+                     np.concatenate(shares).astype(np.float32), np.concatenate(nones), offsets)
+
+
+def edge_slot_shrinkage(slots, skin):
+    """The shrinkage (R,) float32 of every row of ``slots`` for the face's skin (N, 3): equal
+    to :func:`shrinkage` of each row's plan at its vertex."""
+    p = np.asarray(skin, np.float32)
+    d = np.take(p, slots.ends[1], axis=0)
+    d -= np.take(p, slots.ends[0], axis=0)
+    length = np.sqrt(np.einsum("ij,ij->i", d, d))
+    np.maximum(length, np.float32(_TINY), out=length)
+    q = slots.slot_coef / np.take(length, slots.slot_edge)  # a'/l2, b'/l3 per side
+    s = slots.share - (1.0 / (q[0] + q[1]) + 1.0 / (q[2] + q[3]))
+    s[slots.none] = 0.0
+    return s

@@ -6,8 +6,9 @@ heights (:mod:`.curves`) times the amplitude modulation ``M(s)`` (eq. 5) of the 
 A vertex near two curves has two shrinkages, one across each curve's direction.  The plan
 therefore gives every curve its own copy of the triangles around its entries (the curve's
 *patch*), with the curve's tangent as the direction at the entries, and concatenates the
-patches into one mesh: one :func:`field.shrinkage_plan` and, per frame, one
-:func:`field.shrinkage` over the patches only, never the whole face.
+patches into one mesh for one :func:`field.shrinkage_plan`; per frame
+:func:`field.edge_slot_shrinkage` measures only the edges the entries use, never the
+whole face.
 
 Heights are computed on the mapped mesh (UV seams split vertices) and go back to the
 face's vertices by averaging the copies of a vertex that a curve reaches.  A curve does not
@@ -32,10 +33,10 @@ class LargePlan:
     curves: "core_curves.CurvePlan"
     footprint: np.ndarray  # (F,) sorted mesh vertex ids that get a height
     entry_slot: np.ndarray  # (E,) index into the footprint of each entry's mesh vertex
-    patch_verts: np.ndarray  # (P,) mapped vertex of every patch vertex
-    entry_patch: np.ndarray  # (E,) the patch vertex of each entry
-    shrink: "field.ShrinkagePlan"
-    rest_height: np.ndarray  # (E,) r of each entry's curve
+    shrink: "field.EdgeSlots"  # one row per entry: the shrinkage across its curve
+    rest_height: np.ndarray  # (E,) float32 r of each entry's curve
+    growth: np.ndarray  # (E,) float32 1 - r: M's slope for s >= 0
+    decay: np.ndarray  # (E,) float32 1/r - 1 (0 where r = 0): M's rate for s < 0
     static: np.ndarray  # (E,) float32 S(l) taper(u) window(l)
 
 
@@ -68,7 +69,8 @@ def build(mapped, rest, curves, rest_heights):
     tris, patch_verts, entry_patch = _patches(mapped.tris, plan)
     direction = np.zeros((len(patch_verts), 2))
     direction[entry_patch] = plan.tangent
-    shrink = field.shrinkage_plan(mapped.uv[patch_verts], tris, direction, pos[patch_verts])
+    patch_plan = field.shrinkage_plan(mapped.uv[patch_verts], tris, direction, pos[patch_verts])
+    shrink = field.edge_slots([(patch_plan, entry_patch, mapped.vert_of[patch_verts])], mapped.n_verts)
     mesh_vert = mapped.vert_of[plan.verts]
     footprint, entry_slot = np.unique(mesh_vert, return_inverse=True)
     # a vertex near two curves sums their heights; the seam copies of one vertex near one
@@ -76,31 +78,29 @@ def build(mapped, rest, curves, rest_heights):
     _u, pair, count = np.unique(plan.curve * (mapped.n_verts + 1) + mesh_vert, return_inverse=True,
                                 return_counts=True)
     seam = count[pair.ravel()].astype(np.float64)
-    r = np.asarray(rest_heights, np.float64)[plan.curve] if len(plan.curve) else np.zeros(0)
-    return LargePlan(plan, footprint, entry_slot.ravel(), patch_verts, entry_patch, shrink,
-                     r, (plan.static / seam).astype(_F))
+    r = np.clip(np.asarray(rest_heights, np.float64).reshape(-1), 0.0, 1.0)
+    r = r[plan.curve] if len(plan.curve) else np.zeros(0)
+    decay = np.where(r > 0, 1.0 / np.where(r > 0, r, 1.0) - 1.0, 0.0)
+    return LargePlan(plan, footprint, entry_slot.ravel(), shrink, r.astype(_F), (1.0 - r).astype(_F),
+                     decay.astype(_F), (plan.static / seam).astype(_F))
 
 
-def heights(plan, skin_mapped_patch, formed=False):
+def heights(plan, skin, formed=False):
     """The frame's heights (F,) float32 at ``plan.footprint``: the sum over curves of
-    ``S(l) taper window M(s)``, ``s`` across each curve.  ``skin_mapped_patch`` (P, 3)
-    float32: the skin at ``plan.patch_verts`` (see :func:`patch_skin`).  ``formed``: every
-    wrinkle at its full height, ``M = 1`` (for a baked map), the skin unused."""
+    ``S(l) taper window M(s)``, ``s`` across each curve, for the face's skin (N, 3)
+    float32.  ``formed``: every wrinkle at its full height, ``M = 1`` (for a baked map), the
+    skin unused."""
     if len(plan.footprint) == 0:
         return np.zeros(0, _F)
     if formed:
         m = 1.0
-    else:
-        s = field.shrinkage(plan.shrink, skin_mapped_patch)[plan.entry_patch]
-        m = field.modulation(s, plan.rest_height)
+    else:  # eq. 5 (field.modulation) with its constants per entry precomputed, in float32
+        s = np.minimum(shrinkage_at(plan, skin), np.float32(1.0))
+        m = np.where(s >= 0, plan.growth * s + plan.rest_height,
+                     plan.rest_height * np.exp(plan.decay * np.minimum(s, np.float32(0.0))))
     return np.bincount(plan.entry_slot, weights=plan.static * m, minlength=len(plan.footprint)).astype(_F)
 
 
-def patch_skin(plan, mapped, skin):
-    """The skin (N, 3) of the face at the plan's patch vertices (P, 3)."""
-    return skin[mapped.vert_of[plan.patch_verts]]
-
-
-def shrinkage_at(plan, skin_mapped_patch):
-    """The shrinkage across each curve at its entries (E,) (for tests and the viewport)."""
-    return field.shrinkage(plan.shrink, skin_mapped_patch)[plan.entry_patch]
+def shrinkage_at(plan, skin):
+    """The shrinkage across each curve at its entries (E,), for the face's skin (N, 3)."""
+    return field.edge_slot_shrinkage(plan.shrink, skin)
