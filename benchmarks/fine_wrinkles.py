@@ -50,17 +50,20 @@ The mapped mesh (``--mesh``):
     none blocks: 0), and the time of one rebuild of the static plan (what an edit of a
     curve costs).
 ``fine_attributes_frame_ms``
-    The spot for the fine-wrinkle shrinkage attributes (§5, §7: the fine wrinkles' M(s)
-    per vertex, written as attributes for the shading): null until the add-on writes them;
-    ``add_fine_attributes`` is where the benchmark will switch them on, and the same
-    interleaved blocks then measure them.
+    The per-frame cost of the fine wrinkles' two shrinkage attributes (§5, §7: measured
+    across each field at every vertex and written for the shading) on the same face,
+    fine wrinkles carved at 512 x 512: the frames with the curves and the fine wrinkles
+    against those with the curves alone, in the same interleaved blocks.
+``curves_and_fine_frame_ms``
+    Both together on top of the stage: the frames with curves and fine wrinkles against
+    those with neither (the figure the 0.5 ms goal is about).
 
 Output: progress on stderr (the shared benchmark helpers log theirs on stdout), one JSON
 object on the last line of stdout::
 
     {"carve_s": {"512": ..., "1024": ..., "2048": ...}, "coverage": {...}, "furrows": {...},
      "mesh": "face", "repeats": 3, "curves_frame_ms": ..., "curves": {...},
-     "fine_attributes_frame_ms": null, "bpy": "4.5.4"}
+     "fine_attributes_frame_ms": ..., "curves_and_fine_frame_ms": ..., "bpy": "4.5.4"}
 
 With ``--carve-only`` the script imports no bpy and the keys from ``curves_frame_ms`` on
 are left out.
@@ -195,10 +198,18 @@ def place_curves(bench, n_curves):
 
 
 def add_fine_attributes(bench):
-    """The spot for the fine-wrinkle shrinkage attributes (see ``fine_attributes_frame_ms``
-    in the module docstring): switch them on here once the add-on writes them, and return
-    True.  They do not exist yet: nothing to switch, False."""
-    return False
+    """Carve fine wrinkles on the bench face (512 x 512, directions from its poses), so the
+    frame stage writes both shrinkage attributes every frame.  Returns the first height
+    image, whose pointer switches the fine-wrinkle source on and off."""
+    import bpy
+
+    fs = bench.ob.ewrinkles_face.fine_wrinkles
+    fs.resolution = "512"
+    t = time.perf_counter()
+    if bpy.ops.wrinkle.carve_fine() != {"FINISHED"}:
+        raise RuntimeError("Carve Fine Wrinkles failed on the bench face")
+    log(f"fine: carved {fs.furrows} furrows in {time.perf_counter() - t:.1f} s")
+    return fs.image_1
 
 
 def curves_frame_ms(n_curves, target, frames, warm, repeats):
@@ -219,25 +230,27 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
     vl.objects.active = face
     live = place_curves(bench, n_curves)  # before Enable Wrinkles: no plan is rebuilt per property
     assert bpy.ops.wrinkle.enable() == {"FINISHED"}
-    # the fine-wrinkle shrinkage attributes' spot: once add_fine_attributes switches them on,
-    # time their blocks next to "none" like the curves' below, as fine_attributes_frame_ms
-    fine = add_fine_attributes(bench)
+    fine_image = add_fine_attributes(bench)
+    fine_settings = face.ewrinkles_face.fine_wrinkles
+
+    def set_fine(on):
+        """The fine-wrinkle source on (its first image set) or off (no image: not active)."""
+        fine_settings.image_1 = fine_image if on else None
 
     stage_mod = fu.stage.find_modifier(face)
 
     def set_curves(on):
         """Every curve on or off.  With the stage off meanwhile, each change's refresh stops at
         the stage check instead of rebuilding the plan per curve; one full update then
-        rebuilds it.  (A viewport frame would not: the curve source's ``unchanged`` looks
-        only at the curves that were enabled when it built, so curves switched on later
-        are missed until a full update.)"""
+        rebuilds it."""
         stage_mod.show_viewport = False
         for ob in live:
             if ob.ewrinkles_curve.enabled != on:
                 ob.ewrinkles_curve.enabled = on
         stage_mod.show_viewport = True
         fu.pipeline.refresh_all(bpy.context)
-        got = len(fu.pipeline._cache[face.session_uid].statics["curves"][1].uids)
+        plan = fu.pipeline._cache[face.session_uid].statics["curves"][1].plan
+        got = 0 if plan is None else len(plan.curves.lengths)
         if got != (n_curves if on else 0):
             raise RuntimeError(f"{got} curves in the plan after switching them {'on' if on else 'off'}")
 
@@ -254,7 +267,7 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
     plan = static.plan
     detail = {"verts": bench.n, "head": bench.source, "uv_map": built["uv_map"], "curves": n_curves,
               "footprint_verts": int(len(plan.footprint)), "entries": int(len(plan.entry_slot)),
-              "patch_verts": int(len(plan.patch_verts))}
+              "edges_measured": int(len(plan.shrink.ends[0]))}
     # one rebuild of the static plan (what an edit of a curve costs): the handler's whole
     # update with the cached static data dropped (the frame stage's internals)
     rebuilds = []
@@ -268,31 +281,37 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
         log(f"curves: timing a rebuild failed ({exc!r})")
     detail["rebuild_ms"] = fu.ms(rebuilds)
     log(f"curves: {bench.n} verts ({bench.source}), {n_curves} curves, footprint {len(plan.footprint)} "
-        f"verts, {len(plan.entry_slot)} entries, patch {len(plan.patch_verts)} verts; plan rebuild "
+        f"verts, {len(plan.entry_slot)} entries, {len(plan.shrink.ends[0])} edges; plan rebuild "
         f"{fu.fmt(detail['rebuild_ms'], '.1f')} ms; set up in {time.perf_counter() - t:.1f} s")
-    heights = {"none": [], "curves": []}
-
-    times = {"none": [], "curves": []}
+    configs = ("none", "curves", "all")  # all: the curves and both fine shrinkage attributes
+    heights = {c: [] for c in configs}
+    times = {c: [] for c in configs}
     for rep in range(repeats):
-        for config in (("none", "curves") if rep % 2 == 0 else ("curves", "none")):
-            set_curves(config == "curves")
+        for config in (configs if rep % 2 == 0 else configs[::-1]):
+            set_fine(config == "all")
+            set_curves(config != "none")
             bench.frame_loop(bench.warm)
             times[config].append(bench.frame_loop(bench.frames))
             # untimed: the offsets the stage computed on a few more frames
             bench.frame_loop(bench.frames[:3], lambda _ev, c=config: heights[c].append(
                 float(np.abs(fu.pipeline._cache[face.session_uid].out).max())))
         log(f"curves: repeat {rep + 1}/{repeats}: none {fu.ms(times['none'][-1]):.2f} ms, "
-            f"curves {fu.ms(times['curves'][-1]):.2f} ms")
+            f"curves {fu.ms(times['curves'][-1]):.2f} ms, with fine {fu.ms(times['all'][-1]):.2f} ms")
     set_curves(True)
+    set_fine(True)
     med = {c: [fu.ms(block) for block in blocks] for c, blocks in times.items()}
     cost = [a - b for a, b in zip(med["curves"], med["none"])]
+    fine_cost = [a - b for a, b in zip(med["all"], med["curves"])]
+    both_cost = [a - b for a, b in zip(med["all"], med["none"])]
     detail.update({
         "frame_ms": fu.ms([x for b in times["curves"] for x in b]),
         "base_frame_ms": fu.ms([x for b in times["none"] for x in b]),
         "max_height_mm": max(heights["curves"]) * 1000.0,
         "max_height_none_mm": max(heights["none"]) * 1000.0,
         "frames": frames, "warm": warm, "repeats": repeats,
-        "per_repeat": {"frame_ms": med["curves"], "base_ms": med["none"], "cost_ms": cost},
+        "all_frame_ms": fu.ms([x for b in times["all"] for x in b]),
+        "per_repeat": {"frame_ms": med["curves"], "base_ms": med["none"], "all_ms": med["all"],
+                       "cost_ms": cost, "fine_cost_ms": fine_cost},
     })
     result = fu.median_or_none(cost)
     log(f"curves_frame_ms {result:.3f} (per repeat {', '.join(f'{c:.3f}' for c in cost)}); frame "
@@ -301,7 +320,9 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
     if not detail["max_height_mm"] > 0.0 or detail["max_height_none_mm"] != 0.0:
         raise RuntimeError("the curves blocks did not raise wrinkles, or the none blocks did")
     out = {"curves_frame_ms": fu.clean(result), "curves": fu.clean(detail),
-           "fine_attributes_frame_ms": None, "fine_attributes": fine, "bpy": bpy.app.version_string}
+           "fine_attributes_frame_ms": fu.clean(fu.median_or_none(fine_cost)),
+           "curves_and_fine_frame_ms": fu.clean(fu.median_or_none(both_cost)),
+           "bpy": bpy.app.version_string}
     try:
         bpy.ops.wm.read_factory_settings(use_empty=True)  # bpy 4.5 hangs at exit otherwise
     except Exception as exc:  # noqa: BLE001 - the figures are measured; report and go on

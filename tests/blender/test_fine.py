@@ -22,8 +22,10 @@ def _carve(face, resolution="512", **settings):
 
 
 def _attr(face, name):
-    att = face.data.attributes[name]
-    out = np.empty(len(face.data.vertices), np.float32)
+    """The attribute as the face shows it: viewport frames write it into the evaluated mesh."""
+    ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    att = ev.attributes[name]
+    out = np.empty(len(ev.vertices), np.float32)
     att.data.foreach_get("value", out)
     return out
 

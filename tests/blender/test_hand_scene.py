@@ -22,8 +22,10 @@ def _small_arm():
 
 
 def _attr(face, name):
-    out = np.empty(len(face.data.vertices), np.float32)
-    face.data.attributes[name].data.foreach_get("value", out)
+    """The attribute as the face shows it: viewport frames write it into the evaluated mesh."""
+    ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    out = np.empty(len(ev.vertices), np.float32)
+    ev.attributes[name].data.foreach_get("value", out)
     return out
 
 

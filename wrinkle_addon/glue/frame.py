@@ -176,10 +176,23 @@ def _stage_problem(ob, ev, mod):
     return stage.order_problem(ob, mod, len(ev.vertices))
 
 
-def _write_shading(ob, active, statics, contributions):
+def _write_shading(ob, active, statics, contributions, ev=None):
+    """The sources' shading values; their point attributes into the evaluated mesh ``ev``
+    when given (viewport frames whose geometry was written in place: no re-evaluation, which
+    a write into the original mesh's attribute triggers, measured 3 ms at 50k vertices), else
+    into the original mesh (renders, exports, edits)."""
     for source, part in zip(active, contributions):
         for name, values in part.attributes.items():
-            meshio.write_floats(ob.data, name, values)
+            att = ev.attributes.get(name) if ev is not None else None
+            if (att is not None and att.domain == "POINT" and att.data_type == "FLOAT"
+                    and len(att.data) == len(values) and ob.data.attributes.get(name) is not None):
+                att.data.foreach_set("value", np.ascontiguousarray(values, dtype=np.float32))
+                shown = True
+            else:
+                meshio.write_floats(ob.data, name, values)
+                shown = False
+            if shown:
+                ev.update()  # the viewport redraws from it (as the in-place geometry write)
         for name, values in part.shading.items():
             source.write_shading(ob, statics[source.name], name, values)
 
@@ -235,15 +248,18 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
                      for s, frame_in in zip(active, inputs[2:])]
     for s in registry.sources():
         status.set(ob, s.name, s.problems(ob, statics[s.name]) if s in active else "")
-    _write_shading(ob, active, statics, contributions)
     if not enabled:
+        _write_shading(ob, active, statics, contributions, ev if in_place else None)
         state.orig_inputs = (skin.copy(), inputs)
         return False
     geometric = [(s, c) for s, c in zip(active, contributions) if s.geometric]
     plan = _plan(state, [s for s, _c in geometric], statics)
     parts = [c for _s, c in geometric]
     out = combine.combine(plan, skin, parts, out=state.out)
-    if not (in_place and stage.output_is_final(ob, mod) and _write_in_place(state, ev, skin, out)):
+    if in_place and stage.output_is_final(ob, mod) and _write_in_place(state, ev, skin, out):
+        _write_shading(ob, active, statics, contributions, ev)
+    else:
+        _write_shading(ob, active, statics, contributions)
         meshio.write_vectors(me, stage.OFFSET_ATTR, out)
         stage.stamp(ob, depsgraph)
         me.update_tag()
