@@ -1,36 +1,68 @@
 """Procedural human head for demos, tests and benchmarks. Pure NumPy, no bpy.
 
 Conventions: metres, Z up, the face looks toward -Y, the character's left is +X.
-The chin is near z = 0.02 and the crown at z = 0.223; the skull is 0.15 m wide
-and 0.19 m long from the glabella to the back of the head.
+An adult of average build: 22 cm from the chin (z = 0.004) to the crown
+(z = 0.227) with the eyes (z = 0.1165, 63 mm apart) at half that height; the
+skull 15 cm wide and 19 cm from the glabella to the back of the head, the face
+14 cm across the cheekbones, the neck 11.5 cm wide under the jaw, the ears
+6.4 cm tall standing 1.5-2 cm off the head.
 
 How it is built
 ---------------
 * The shape is an implicit function ``head_field(p)`` (negative inside, close to
-  a signed distance): smoothly blended primitives (a superellipsoid cranium,
-  ellipsoids for the mid-face, the mouth and the buccal pads, capsules for the
-  mandible and neck, spheres for the eyeballs between open lids) minus a relief
-  displaced along the normal: Gaussians, ridges and grooves for the brow ridge,
-  eye sockets, lids, nose (dorsum, tip, alae, nostrils either side of the
-  columella), cheekbones, soft nasolabial folds, philtrum, lips (the corners
-  tucked in beside the modiolus) and mouth line, chin, and the ears.
-* Every vertex is the root of the field along a ray. Above the throat the rays
-  leave ``ORIGIN`` (the head is star-shaped from there; ``tests`` checks it);
-  the neck is sampled by level rays from the same vertical axis, so the open
-  neck ring lies in the plane z = -0.085.
+  a signed distance), smoothly blended solids:
+
+  - the cranium, a superellipsoid egg;
+  - the face's soft tissue over the skull, lofted through superellipse sections
+    (a B-spline in z, from under the chin to the top of the forehead) and cut
+    underneath along the lower border of the mandible, which gives the jaw line;
+  - the neck, leaning forward and spreading toward the shoulders, with the two
+    sternocleidomastoids;
+  - the nose: a ridged dorsum from the nasion to the tip, the tip lobule, the
+    columella and underside, the alae with a crease round them, and the
+    nostrils carved once the nose is on the face;
+  - the ears: each a slab leaning back 15 degrees, its lateral face turned toward
+    the back and carved into helix, scapha, antihelix, triangular fossa, concha,
+    tragus, antitragus and lobe, the space behind it filled;
+  - the eyes: eyeballs (the cornea bulging over a carved iris and pupil) inside
+    the lids, a shell over each eyeball that opens along the palpebral fissure,
+    with a ledge at the margins, the tarsal plates, the upper lid crease and the
+    fold above it, and the roll under the lower lid;
+
+  plus a relief displaced along the normal: the brow ridge with the glabella's
+  prominence over the nasion, the frontal eminences and the forehead rounding
+  into the crown, the eye sockets and the lateral orbital rims, the cheekbones
+  and zygomatic arches, the cheek's fullness beside the nose and over the
+  buccal region, the nasolabial folds (the cheek's fat ending medially on a soft
+  crease from above the ala down to beside the mouth corner), the lips
+  (vermilion borders with the cupid's bow and the white roll, the philtrum, the
+  mouth line, the corners tucked in beside the modiolus, all on the curve of
+  the teeth), the mentolabial sulcus and the chin.
+* Every vertex is first the root of the field along a ray. Above the throat
+  the rays leave ``ORIGIN`` (the head is star-shaped from there; ``tests``
+  checks it); the neck is sampled by level rays from the same vertical axis, so
+  the open neck ring lies in the plane z = -0.085.
 * The rays form a latitude-longitude grid whose columns and rows are packed
-  densely over the face and sparsely elsewhere: at the default 40k vertices the
-  forehead, brows, eyes, nose and mouth get edges of 1.6-1.9 mm while the back
-  of the skull gets 3-7 mm. The crown is closed by a quad cap: a Coons patch on
-  the azimuthal-equidistant plane, relaxed together with the top rows so its
-  four valence-3 corners open up. All faces are quads, wound counter-clockwise
-  seen from outside.
+  densely over the face and sparsely elsewhere, with a ray through each pupil
+  (the eye landmarks are vertices on the eyes' axes): at the default 40k
+  vertices the forehead, brows, eyes, nose and mouth get edges of 1.6-1.9 mm
+  while the back of the skull gets 3-7 mm. The crown is closed by a quad cap: a
+  Coons patch on the azimuthal-equidistant plane, relaxed together with the top
+  rows so its four valence-3 corners open up. All faces are quads, wound
+  counter-clockwise seen from outside.
+* Where a ray meets the surface at a glancing angle (under the nose, round the
+  ears and the lids) the quads would be long slivers, so those vertices and a
+  few rings round them are relaxed: moved toward the weighted mean of their
+  neighbours within the tangent plane, then back onto the surface by Newton
+  steps along the gradient (``_relax``).
 * Narrow grooves are widened to the mesh resolution (``detail``), so coarse
   meshes do not alias them.
-* UVs: the band uses (azimuth, elevation seen from ``ORIGIN``) at the same
-  scale on both axes over the face (close to conformal there), with the back of
-  the head squeezed into the outer 5 % of U. The crown is a separate disc
-  island above the band.
+* UVs: the band uses (azimuth, elevation seen from ``ORIGIN``) of the ray hits
+  at the same scale on both axes over the face (close to conformal there), with
+  the back of the head squeezed into the outer 5 % of U. The crown is a separate
+  disc island above the band.
+* Landmarks are found on the surface by their anatomical definitions
+  (``_landmarks``), independently of the add-on's landmark finder.
 """
 
 from functools import partial
@@ -57,7 +89,6 @@ ORIGIN = np.array([0.0, 0.005, 0.105])
 _RAY_MAX = 0.26  # every ray leaves the head before this distance (m)
 _NECK_CUT = -0.085  # z of the open neck ring
 _NECK_TOP = -0.020  # below this the neck is sampled by level rays
-_NECK = ((0.0, 0.016, -0.30), (0.0, 0.030, 0.080), 0.055, 0.051)  # round cone a, b, ra, rb
 _EL_LOW = np.radians(-78.0)  # lowest ray from ORIGIN (at the front of the throat)
 _EL_FIXED = np.radians(52.0)  # outer edge of the relaxed crown region
 _EL_CAP = np.radians(64.0)  # ring where the band meets the cap grid
@@ -103,11 +134,6 @@ def _smax(a, b, k):
     return -_smin(-a, -b, k)
 
 
-def _gauss(p, c, s):
-    q = (p - c) / s
-    return np.exp(-0.5 * np.einsum("ij,ij->i", q, q))
-
-
 def _smoothstep(e0, e1, x):
     t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
     return t * t * (3.0 - 2.0 * t)
@@ -141,170 +167,317 @@ def _groove(d, sigma, detail):
     return np.exp(-0.5 * d * d / (sigma * sigma + detail * detail))
 
 
-def _nose_relief(x, z, detail):
-    """Height (m) of the nose above the face, as a function of (x, z)."""
-    ax = _soft_abs(x)
-    # Dorsum: straight in profile from the nasion to the supratip.
-    t = np.clip((0.119 - z) / (0.119 - 0.083), 0.0, 1.0)
-    height = (0.0055 + 0.0085 * t) * _smoothstep(0.124, 0.112, z)
-    half_width = 0.0075 + 0.0010 * t
-    ridge = height * np.exp(-((x / half_width) ** 2))
-    # Tip lobule, slightly bifid; the columella under it.
-    sz = np.where(z > 0.0815, 0.0095, 0.0060)
-    tip = 0.0055 * np.exp(-0.5 * ((ax - 0.0015) / 0.0075) ** 2 - 0.5 * ((z - 0.0815) / sz) ** 2)
-    body = (ridge + tip) * _smoothstep(0.0685, 0.0805, z)
-    # Alae: rounded wings either side of the tip, bounded by the alar crease.
-    c, s = np.cos(0.45), np.sin(0.45)  # the wing leans from the cheek up toward the tip
-    du, dv = ax - 0.0108, z - 0.0752
-    u = np.hypot((c * du + s * dv) / 0.0088, (-s * du + c * dv) / 0.0058)
-    ala = 0.0092 * np.exp(-0.5 * (u / 0.62) ** 3) * _smoothstep(0.0660, 0.0745, z)
-    crease = 0.0006 * _groove(u - 1.05, 0.12 * 0.0067, detail) * _smoothstep(0.006, 0.012, ax)
-    h = _smax(body, ala, 0.008)
-    # Nostrils: on the underside, between the columella and each ala, the surface
-    # sinks up into the nose (a share of the height is taken away, so the lip under
-    # them is untouched); the columella between them stays whole.
-    c, s = np.cos(0.35), np.sin(0.35)  # teardrops, leaning in toward the tip
-    du, dv = ax - 0.0072, z - 0.0726
-    e = ((c * du + s * dv) / 0.0040) ** 2 + ((-s * du + c * dv) / 0.0024) ** 2
-    nostril = np.exp(-0.5 * e * e)
-    return h * (1.0 - 0.7 * nostril) - crease
+def _spline(z, z0, dz, table):
+    """Uniform cubic B-spline of the rows of ``table`` (K, m) as control values at
+    z0 + k dz (curvature-continuous, so sections blend without bands)."""
+    k = len(table)
+    t = np.clip((z - z0) / dz, 0.0, k - 1.0)
+    i = np.minimum(np.floor(t).astype(np.int64), k - 2)
+    u = (t - i)[:, None]
+    p0, p1 = table[np.maximum(i - 1, 0)], table[i]
+    p2, p3 = table[i + 1], table[np.minimum(i + 2, k - 1)]
+    u2, u3 = u * u, u * u * u
+    return ((1.0 - u) ** 3 * p0 + (3.0 * u3 - 6.0 * u2 + 4.0) * p1
+            + (-3.0 * u3 + 3.0 * u2 + 3.0 * u + 1.0) * p2 + u3 * p3) / 6.0
 
 
-def _mouth_relief(x, z, detail):
-    """Lips (vermilion border, cupid's bow), philtrum, mouth line and chin as a
-    height (m) over (x, z)."""
-    ax = _soft_abs(x)
-    s = np.clip(ax / 0.0215, 0.0, 1.6)  # 1 where the lips end, 2.5 mm inside the corners
-    z_m = 0.0478 - 0.0010 * s * s - 0.0003 * np.exp(-0.5 * (x / 0.0030) ** 2)  # mouth line
-    # Vermilion borders: the cupid's bow peaks at x = +-5.5 mm over a dip on the
-    # midline; both borders run down to the corners.
-    bow = 0.0011 * np.exp(-0.5 * ((ax - 0.0058) / 0.0030) ** 2) - 0.0005 * np.exp(-0.5 * (x / 0.0022) ** 2)
-    z_ub = z_m + (0.0080 + bow) * np.clip(1.0 - s ** 2.2, 0.0, None) ** 0.55
-    z_lb = z_m - 0.0100 * np.clip(1.0 - s ** 2.6, 0.0, None) ** 0.6
-    w = max(0.0008, 0.9 * detail)
-    # Upper lip: skin sloping forward from the nose to the border ...
-    skin = 0.0012 * _smoothstep(0.0700, z_ub - 0.002, z) * np.exp(-((x / 0.024) ** 4))
-    # ... and the vermilion, a roll that stands proud of it, pouting a little.
-    u = np.clip((z - z_m) / np.maximum(z_ub - z_m, 1e-4), 0.0, 1.0)
-    inside_up = _smoothstep(z_ub + w, z_ub - w, z) * _smoothstep(z_m - w, z_m + w, z)
-    v_up = (0.0032 * np.sin(np.pi * (0.25 + 0.75 * u)) ** 0.7 + 0.0006) * inside_up
-    # Lower lip: a fuller roll under the mouth line, bounded by its border.
-    u2 = np.clip((z_m - z) / np.maximum(z_m - z_lb, 1e-4), 0.0, 1.0)
-    inside_lo = _smoothstep(z_lb - w, z_lb + w, z) * _smoothstep(z_m + w, z_m - w, z)
-    v_lo = (0.0036 * np.sin(np.pi * (0.15 + 0.85 * u2)) ** 0.6 + 0.0006) * inside_lo
-    # The lower lip is two soft lobes either side of the midline.
-    v_lo *= 1.0 + 0.15 * np.exp(-0.5 * ((ax - 0.009) / 0.006) ** 2)
-    fade = np.clip(1.0 - s ** 2, 0.0, None) ** 0.7
-    r = skin + (v_up + v_lo) * fade
-    # The white roll along the upper border.
-    r += 0.0004 * _groove(z - z_ub, 0.0005, detail) * fade
-    # Philtrum: two columns from the columella to the bow's peaks, a dip between.
-    t = _smoothstep(z_ub, z_ub + 0.004, z) * _smoothstep(0.0690, 0.0640, z)
-    colx = 0.0040 + 0.0018 * _smoothstep(0.066, 0.057, z)
-    r += t * (0.0009 * np.exp(-0.5 * ((ax - colx) / 0.0014) ** 2)
-              - 0.0004 * np.exp(-0.5 * (x / 0.0018) ** 2))
-    # Mouth line (the lips meet) and the corners of the mouth (modiolus).
-    # The line fades before the corners, which are pits tucked in behind the lips;
-    # the modiolus is a soft knot of muscle just outside each corner.
-    r -= 0.0011 * _groove(z - z_m, 0.0006, detail) * np.exp(-((x / 0.0225) ** 4))
-    r -= 0.0036 * np.exp(-0.5 * (((ax - 0.0235) / 0.0036) ** 2 + ((z - 0.0470) / 0.0045) ** 2))
-    r += 0.0010 * np.exp(-0.5 * (((ax - 0.0280) / 0.0055) ** 2 + ((z - 0.0480) / 0.0090) ** 2))
-    # Mentolabial sulcus and the chin.
-    r -= 0.0028 * np.exp(-0.5 * ((z - 0.0330) / 0.0040) ** 2) * np.exp(-0.5 * (x / 0.016) ** 2)
-    r += 0.0052 * np.exp(-0.5 * ((z - 0.0215) / 0.0085) ** 2) * np.exp(-0.5 * (x / 0.012) ** 2)
-    return r
+def _ellipsoid_rot(p, c, r, angle):
+    """``_ellipsoid`` turned by ``angle`` (radians) about Z: its first axis then
+    points along (cos, sin) in the XY plane."""
+    q = p - c
+    ca, sa = np.cos(angle), np.sin(angle)
+    u = np.stack([ca * q[:, 0] + sa * q[:, 1], -sa * q[:, 0] + ca * q[:, 1], q[:, 2]], axis=1)
+    return _ellipsoid(u, np.zeros(3), r)
+
+
+# Sections of the face's soft tissue over the skull, from under the chin to the
+# forehead: z of the first knot, knot spacing, then per knot the half width, the y
+# of the section's middle, its depth in front of and behind the middle, and the
+# superellipse exponent of its front half (the back half is an ellipse).
+_LOFT_Z0, _LOFT_DZ = -0.01, 0.01
+_LOFT = np.array([
+    # W      Yc      Df     Db     nf
+    [0.042, 0.014, 0.078, 0.035, 2.2],  # -0.01
+    [0.046, 0.012, 0.096, 0.035, 2.2],  # 0.00
+    [0.050, 0.010, 0.103, 0.035, 2.3],  # 0.01
+    [0.054, 0.008, 0.105, 0.035, 2.4],  # 0.02 chin
+    [0.058, 0.006, 0.102, 0.035, 2.4],  # 0.03
+    [0.062, 0.004, 0.102, 0.035, 2.25],  # 0.04
+    [0.065, 0.002, 0.103, 0.035, 2.3],  # 0.05 mouth
+    [0.067, 0.000, 0.101, 0.035, 2.35],  # 0.06
+    [0.068, -0.002, 0.097, 0.035, 2.4],  # 0.07
+    [0.069, -0.004, 0.091, 0.035, 2.45],  # 0.08 nose base
+    [0.070, -0.006, 0.085, 0.035, 2.5],  # 0.09
+    [0.071, -0.008, 0.081, 0.035, 2.5],  # 0.10 cheekbones
+    [0.071, -0.010, 0.078, 0.035, 2.5],  # 0.11
+    [0.069, -0.012, 0.077, 0.032, 2.5],  # 0.12 eyes
+    [0.067, -0.012, 0.080, 0.030, 2.3],  # 0.13 brows
+    [0.066, -0.012, 0.081, 0.030, 2.25],  # 0.14
+    [0.064, -0.012, 0.081, 0.030, 2.25],  # 0.15
+    [0.061, -0.012, 0.078, 0.030, 2.2],  # 0.16
+    [0.057, -0.012, 0.0745, 0.030, 2.2],  # 0.17
+    [0.052, -0.012, 0.0700, 0.030, 2.1],  # 0.18
+    [0.046, -0.012, 0.0610, 0.030, 2.0],  # 0.19
+    [0.036, -0.012, 0.046, 0.028, 2.0],  # 0.20
+    [0.024, -0.012, 0.026, 0.022, 2.0],  # 0.21
+    [0.012, -0.012, 0.008, 0.018, 2.0],  # 0.22
+])
+
+
+def _face_mass(p):
+    """The face's soft tissue over the skull's front: lofted superellipse sections,
+    cut underneath along the lower border of the mandible."""
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    w, yc, df, db, nf = _spline(z, _LOFT_Z0, _LOFT_DZ, _LOFT).T
+    front = y < yc
+    d = np.where(front, df, db)
+    e = np.where(front, nf, 2.0)
+    qx = np.abs(x / w) + 1e-12
+    qy = np.abs((y - yc) / d) + 1e-12
+    k = (qx ** e + qy ** e) ** (1.0 / e)
+    gx = (qx / k) ** (e - 1.0) / w
+    gy = (qy / k) ** (e - 1.0) / d
+    f = (k - 1.0) / np.sqrt(gx * gx + gy * gy)
+    # The lower border of the mandible rises from the menton back to the angles;
+    # between its two halves the floor of the mouth runs level to the throat.
+    rise = -0.02 + 0.31 * _smoothstep(0.012, 0.036, np.abs(x))
+    border = 0.006 + rise * (y + 0.090)
+    f = _smax(f, border - z, 0.008)
+    return _smax(f, z - 0.22, 0.01)  # the top of the forehead is the cranium's
+
+
+def _neck(p):
+    """An elliptic column leaning forward, the trapezius spreading it toward the
+    shoulders behind, and the sternocleidomastoids: a ridge either side from behind
+    the ear down to the front of the collarbones."""
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    t = np.clip((0.04 - z) / 0.14, 0.0, 1.0)
+    yc = 0.016 + 0.004 * t
+    flare = 0.016 * _smoothstep(-0.025, -0.10, z) * _smoothstep(-0.01, 0.04, y)
+    rx = 0.0570 + 0.004 * t * t + flare
+    # the throat slopes forward down to the breastbone, the nape back to the shoulders
+    ry = np.where(y < yc, 0.057 + 0.014 * t * t, 0.057 + 0.020 * t * t)
+    f = (np.hypot(x / rx, (y - yc) / ry) - 1.0) * np.minimum(rx, ry)
+    f = _smax(f, z - 0.09, 0.02)
+    m = _mirror(p)
+    scm = _round_cone(m, (0.043, 0.026, 0.072), (0.012, -0.028, -0.095), 0.0115, 0.0085)
+    return _smin(f, scm, 0.012)
+
+
+# The nose's dorsum in profile: y of the ridge at z = 0.080 + k 0.0075, and the
+# slope of its side walls (dy/dx) and the rounding of the ridge (m).
+_DORSUM_Z0, _DORSUM_DZ = 0.080, 0.0075
+_DORSUM = np.array([
+    # y       slope  rounding
+    [-0.1160, 1.40, 0.0050],  # 0.0800 tip
+    [-0.1150, 1.25, 0.0044],  # 0.0875 supratip
+    [-0.1108, 1.10, 0.0040],  # 0.0950
+    [-0.1058, 1.05, 0.0038],  # 0.1025 rhinion
+    [-0.1008, 1.05, 0.0040],  # 0.1100
+    [-0.0950, 1.05, 0.0044],  # 0.1175
+    [-0.0885, 1.00, 0.0050],  # 0.1250 the nasion, under the glabella's relief
+    [-0.0830, 1.00, 0.0060],  # 0.1325
+    [-0.0800, 1.00, 0.0060],  # 0.1400
+])
+_SUBNASALE = (-0.1005, 0.0712)  # (y, z)
+
+
+def _nose(p, m):
+    """The external nose as a solid: a ridged dorsum, the tip lobule, the columella
+    and underside, and the alae; the nostrils' pockets are returned apart, to be
+    carved once the nose is joined to the face."""
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    yd, slope, rnd = _spline(z, _DORSUM_Z0, _DORSUM_DZ, _DORSUM).T
+    side = np.sqrt(x * x + rnd * rnd)
+    yn = yd + slope * (side - rnd)
+    f = (yn - y) / np.sqrt(1.45 + (slope * x / side) ** 2)
+    # Tip lobule, a little wider than the dorsum above it.
+    tip = _ellipsoid(p, (0.0, -0.1120, 0.0814), (0.0072, 0.0086, 0.0068))
+    f = _smin(f, tip, 0.004)
+    # The underside: from the subnasale forward and up to the tip.
+    under = _SUBNASALE[1] - 0.33 * (y - _SUBNASALE[0]) - z
+    f = _smax(f, under, 0.0035)
+    # Alae: wings from the cheek forward and in toward the tip.
+    ala = _ellipsoid_rot(m, (0.0118, -0.1010, 0.0752), (0.0084, 0.0047, 0.0053), np.radians(60.0))
+    # The alar rims end level with the nostrils' openings, not below them.
+    ala = _smax(ala, under - 0.0008, 0.0015)
+    f = _smin(f, ala, 0.0045)
+    # Nostrils (carved once the nose is on the face): pockets under the tip between
+    # the columella and each ala, deepest at the back and opening forward gently
+    # (the rays from ORIGIN cross them once).
+    q = m - (0.0060, -0.1046, 0.0716)
+    u = np.cos(np.radians(70.0)) * q[:, 0] + np.sin(np.radians(70.0)) * q[:, 1]  # back and out
+    v = -np.sin(np.radians(70.0)) * q[:, 0] + np.cos(np.radians(70.0)) * q[:, 1]
+    tilt = np.radians(28.0)  # the pocket rises toward its back
+    uu = np.cos(tilt) * u + np.sin(tilt) * q[:, 2]
+    zz = -np.sin(tilt) * u + np.cos(tilt) * q[:, 2]
+    nostril = _ellipsoid(np.stack([uu, v, zz], axis=1), np.zeros(3), (0.0050, 0.0022, 0.0030))
+    return f, ala, nostril
+
+
+def _brow_z(ax):
+    """z of the brow ridge's crest at |x| = ``ax``: over the glabella, rising over
+    the inner brow, level over the eye and falling toward the temple."""
+    return 0.1297 + 0.312 * ax - 4.58 * ax * ax
 
 
 def _face_relief(p, m, detail):
     """Height (m) of the facial features above the blended base shapes."""
     x, z = p[:, 0], p[:, 2]
     ax = m[:, 0]
-    r = _nose_relief(x, z, detail)
-    # Brow ridge (strongest over the inner half of each brow) and the glabella.
-    zb = 0.1340 + 0.030 * ax * ax
-    r += 0.0048 * np.exp(-0.5 * ((z - zb) / 0.0060) ** 2) * np.exp(-0.5 * ((ax - 0.018) / 0.026) ** 2)
-    r += 0.0020 * _gauss(p, (0.0, -0.095, 0.130), (0.010, 0.02, 0.008))
-    # Frontal eminences and the flat of the lower forehead.
-    r += 0.0035 * _gauss(p, (0.0, -0.090, 0.150), (0.035, 0.03, 0.012))
-    r += 0.0035 * _gauss(m, (0.024, -0.085, 0.170), (0.022, 0.03, 0.020))
-    # Eye sockets: deep enough behind the lids for the eyeballs to show; the
-    # upper-lid sulcus under the brow; the temples.
-    r -= 0.0125 * _gauss(m, (0.0280, -0.080, 0.1170), (0.0110, 0.02, 0.0085))
-    r -= 0.0020 * _gauss(m, (0.0330, -0.080, 0.1255), (0.012, 0.02, 0.0035))
-    r -= 0.0018 * _gauss(m, (0.066, -0.040, 0.128), (0.010, 0.02, 0.014))
-    # Lower lid and the tear trough below it.
-    ex = (ax - 0.0315) / 0.016
-    lidw = np.clip(1.0 - ex * ex, 0.0, None) ** 2
-    z_tear = 0.1060 - 0.0010 * ex + 0.0025 * ex * ex
-    r -= 0.0008 * _groove(z - z_tear, 0.0022, detail) * lidw
-    # Cheekbones and the fullness of the cheeks.
-    r += 0.0045 * _gauss(m, (0.050, -0.066, 0.099), (0.015, 0.02, 0.010))
-    r += 0.0030 * _gauss(m, (0.064, -0.040, 0.098), (0.010, 0.03, 0.008))  # zygomatic arch
-    r += 0.0045 * _gauss(m, (0.040, -0.075, 0.074), (0.017, 0.03, 0.018))
-    # Nasolabial folds: the fuller cheek lateral to a crease from the ala to the
-    # side of the mouth.
-    a, b = (0.0205, 0.0720), (0.0330, 0.0400)
+    # Brow ridge: the superciliary arches strongest over the inner half of each
+    # brow, meeting in the glabella; the orbital roof under it steeper than the
+    # forehead above.
+    zb = _brow_z(ax)
+    hb = 0.0018 * np.exp(-(((ax - 0.014) / 0.016) ** 2)) + 0.0008 * np.exp(-(((ax - 0.040) / 0.016) ** 2))
+    dz = z - zb
+    sz = np.where(dz < 0.0, 0.0048, 0.0085)
+    r = hb * np.exp(-0.5 * (dz / sz) ** 2)
+    r += 0.0026 * np.exp(-0.5 * ((x / 0.010) ** 2 + ((z - 0.1297) / 0.0055) ** 2))
+    # The top of the forehead, rounding over into the crown; the frontal eminences.
+    r += 0.0035 * np.exp(-0.5 * ((x / 0.040) ** 2 + ((z - 0.193) / 0.013) ** 2))
+    r += 0.0020 * np.exp(-0.5 * (((ax - 0.028) / 0.018) ** 2 + ((z - 0.163) / 0.018) ** 2))
+    # Eye sockets: a bowl under the brow, deepest behind the upper lid; the temples.
+    ex = (ax - 0.0312) / np.where(ax > 0.0312, 0.0165, 0.0190)
+    ez = (z - 0.1172) / np.where(z > 0.1172, 0.0102, 0.0095)
+    r -= 0.0065 * np.exp(-(np.hypot(ex, ez) ** 2.2)) + 0.0060 * np.exp(-(np.hypot(ex, ez) ** 5))
+    r -= 0.0020 * np.exp(-0.5 * (((ax - 0.064) / 0.010) ** 2 + ((z - 0.132) / 0.016) ** 2))
+    # Lower lid's edge on the cheek: the lid-cheek junction.
+    lx = (ax - 0.0340) / 0.0150
+    lidw = np.clip(1.0 - lx * lx, 0.0, None) ** 2
+    z_junction = 0.1040 - 0.0012 * lx + 0.0030 * lx * lx
+    r -= 0.0004 * _groove(z - z_junction, 0.0025, detail) * lidw
+    # The cheek's fullness under the eye, beside the nose.
+    r += 0.0033 * np.exp(-0.5 * (((ax - 0.024) / 0.010) ** 2 + ((z - 0.095) / 0.012) ** 2))
+    # The lateral rim of the orbit, from the brow down to the cheekbone.
+    r += 0.0014 * np.exp(-0.5 * (((ax - 0.0525) / 0.0045) ** 2 + ((z - 0.1160) / 0.0110) ** 2))
+    # Cheekbones, the zygomatic arches and the hollow under them.
+    r += 0.0028 * np.exp(-0.5 * (((ax - 0.0515) / 0.014) ** 2 + ((z - 0.0970) / 0.0105) ** 2))
+    r += 0.0015 * np.exp(-0.5 * (((ax - 0.064) / 0.010) ** 2 + ((z - 0.1000) / 0.0060) ** 2))
+    r += 0.0018 * np.exp(-0.5 * (((ax - 0.052) / 0.012) ** 2 + ((z - 0.062) / 0.020) ** 2))
+    # Nasolabial folds: the cheek's fat pad ends medially on a crease from above
+    # the ala down to beside the mouth corner; the lip side is lower.
+    a, b = (0.0195, 0.0750), (0.0335, 0.0395)
     d_fold, t_fold = _segment_distance_2d(ax, z, a, b)
     normal = np.array([a[1] - b[1], b[0] - a[0]]) / np.hypot(a[1] - b[1], b[0] - a[0])
     side = (ax - a[0]) * normal[0] + (z - a[1]) * normal[1]  # > 0 on the cheek side
-    taper = np.sin(np.pi * np.clip(0.15 + 0.85 * t_fold, 0.0, 1.0)) ** 1.5
-    r -= 0.0004 * _groove(d_fold, 0.0040, detail) * taper
-    r += 0.0016 * np.exp(-0.5 * (d_fold / 0.0085) ** 2) * taper * _smoothstep(-0.004, 0.008, side)
-    r += _mouth_relief(x, z, detail)
+    taper = np.sin(np.pi * np.clip(0.08 + 0.92 * t_fold, 0.0, 1.0)) ** 0.8
+    cheek = _smoothstep(-0.006, 0.008, side) * np.exp(-0.5 * (np.maximum(side, 0.0) / 0.014) ** 2)
+    r += 0.0020 * cheek * taper * _smoothstep(0.030, 0.050, z + 0.3 * side)
+    r -= 0.0004 * _groove(side, 0.0030, detail) * taper
+    mouth = (ax < 0.050) & (z < 0.080)
+    r[mouth] += _mouth_relief(x[mouth], z[mouth], detail)
     return r
 
 
-_EAR_C = (0.019, 0.102)  # (y, z) of the middle of the ear
+def _mouth_relief(x, z, detail):
+    """Lips (vermilion border, cupid's bow), philtrum, mouth line and chin as a
+    height (m) over (x, z)."""
+    ax = _soft_abs(x)
+    s = np.clip(ax / 0.0225, 0.0, 1.6)  # 1 where the lips end, 2 mm inside the corners
+    z_m = 0.0478 - 0.0012 * s * s - 0.0003 * np.exp(-0.5 * (x / 0.0030) ** 2)  # mouth line
+    # Vermilion borders: the cupid's bow peaks at x = +-5.5 mm over a dip on the
+    # midline; both borders run down to the corners.
+    bow = 0.0011 * np.exp(-0.5 * ((ax - 0.0058) / 0.0030) ** 2) - 0.0006 * np.exp(-0.5 * (x / 0.0022) ** 2)
+    z_ub = z_m + (0.0085 + bow) * np.clip(1.0 - s ** 2.2, 0.0, None) ** 0.55
+    z_lb = z_m - 0.0105 * np.clip(1.0 - s ** 2.4, 0.0, None) ** 0.6
+    w = max(0.0007, 0.8 * detail)
+    fade = np.clip(1.0 - s ** 2, 0.0, None) ** 0.6
+    # Upper lip: the skin leans forward from the nose to the border ...
+    lean = 0.0032 * np.exp(-((x / 0.020) ** 4))
+    up_skin = lean * _smoothstep(0.0715, z_ub, z) ** 0.9 * _smoothstep(z_ub - 0.004, z_ub, z + 0.004)
+    # ... the vermilion, a roll that stands proud of it, ...
+    u = np.clip((z - z_m) / np.maximum(z_ub - z_m, 1e-4), 0.0, 1.0)
+    inside_up = _smoothstep(z_ub + w, z_ub - w, z) * _smoothstep(z_m - w, z_m + w, z)
+    v_up = lean * (1.0 - u) + 0.0042 * np.sin(np.pi * u) ** 0.6 * fade
+    r = np.where(z > z_ub, up_skin, v_up * inside_up + up_skin * (1.0 - inside_up))
+    # ... edged by the white roll of the border.
+    r += 0.0005 * _groove(z - z_ub, 0.0006, detail) * fade
+    # Philtrum: two columns from the columella to the bow's peaks, a dip between.
+    t = _smoothstep(z_ub, z_ub + 0.003, z) * _smoothstep(0.0700, 0.0650, z)
+    colx = 0.0038 + 0.0020 * _smoothstep(0.066, 0.057, z)
+    r += t * (0.0008 * np.exp(-0.5 * ((ax - colx) / 0.0015) ** 2)
+              - 0.0005 * np.exp(-0.5 * (x / 0.0019) ** 2))
+    # Lower lip: a fuller roll under the mouth line, bounded by its border, in two
+    # soft lobes either side of the midline; the skin under it recedes to the sulcus.
+    u2 = np.clip((z_m - z) / np.maximum(z_m - z_lb, 1e-4), 0.0, 1.0)
+    inside_lo = _smoothstep(z_lb - w, z_lb + w, z) * _smoothstep(z_m + w, z_m - w, z)
+    lo_base = 0.0022 * np.exp(-((x / 0.020) ** 4))
+    v_lo = lo_base + 0.0048 * np.sin(np.pi * (0.08 + 0.92 * u2)) ** 0.9 * fade
+    v_lo *= 1.0 + 0.12 * np.exp(-0.5 * ((ax - 0.008) / 0.006) ** 2)
+    lo_skin = lo_base * _smoothstep(0.031, z_lb, z) * (z < z_m)
+    r += v_lo * inside_lo + lo_skin * (1.0 - inside_lo)
+    # Mouth line (the lips meet) and the corners of the mouth (modiolus): the line
+    # fades before the corners, which are pits tucked in behind the lips; the
+    # modiolus is a soft knot of muscle just outside each corner.
+    r -= 0.0012 * _groove(z - z_m, 0.0006, detail) * np.exp(-((x / 0.0225) ** 4))
+    r -= 0.0028 * np.exp(-0.5 * (((ax - 0.0235) / 0.0036) ** 2 + ((z - 0.0468) / 0.0045) ** 2))
+    r += 0.0010 * np.exp(-0.5 * (((ax - 0.0285) / 0.0055) ** 2 + ((z - 0.0475) / 0.0090) ** 2))
+    # The lips and the skin round them lie on the curve of the teeth.
+    r += 0.0038 * np.exp(-((x / 0.021) ** 2)) * np.exp(-0.5 * ((z - 0.0480) / 0.0110) ** 2)
+    # Mentolabial sulcus and the chin.
+    r -= 0.0012 * np.exp(-0.5 * ((z - 0.0320) / 0.0040) ** 2) * np.exp(-0.5 * (x / 0.016) ** 2)
+    r += 0.0045 * np.exp(-0.5 * ((z - 0.0190) / 0.0090) ** 2) * np.exp(-((x / 0.017) ** 4))
+    return r
 
 
-def _ear_relief(p, ax, detail):
-    """Ears as relief on the side of the head: helix, scapha, antihelix, concha,
-    tragus and lobe, leaning back 12 degrees."""
-    y, z = p[:, 1] - _EAR_C[0], p[:, 2] - _EAR_C[1]
-    c, s_ = np.cos(np.radians(12.0)), np.sin(np.radians(12.0))
-    u = (c * y + s_ * z) / 0.0165  # toward the back of the head
-    v = (-s_ * y + c * z) / 0.031  # up
-    # Outline: an egg, narrower toward the lobe.
-    half = 1.0 - 0.28 * _smoothstep(0.2, -1.0, v)
-    e = np.hypot((u - 0.05) / half, v)
-    outline = _smoothstep(1.04, 0.68, e)  # a rounded rim, several rays wide
-    attach = _smoothstep(-1.0, -0.55, u)  # fades into the head in front
-    # Standing off the head most at the back of the helix; the bottom of the lobe
-    # sinks back into the cheek, so its lower edge is rounded, not a point.
-    lobe_edge = 0.3 + 0.7 * _smoothstep(-1.15, -0.8, v)
-    lift = (0.0065 + 0.0060 * _smoothstep(-0.6, 1.0, u)) * attach * lobe_edge
-    g = max(0.10, detail / 0.0165)
-    rim = np.exp(-0.5 * ((e - 0.83) / g) ** 2)  # helix
-    scapha = np.exp(-0.5 * ((e - 0.66) / g) ** 2) * _smoothstep(-0.3, 0.2, u + v)
-    # Antihelix: a ridge around the concha, open toward the front.
-    ea = np.hypot((u - 0.10) / 0.62, (v + 0.05) / 0.72)
-    anti = np.exp(-0.5 * ((ea - 0.95) / (1.2 * g)) ** 2) * _smoothstep(-0.5, 0.0, u + 0.6 * v)
-    concha = np.exp(-0.5 * (np.hypot((u + 0.05) / 0.42, (v + 0.12) / 0.40) ** 4))
-    lobe = _smoothstep(-0.45, -0.75, v) * _smoothstep(1.0, 0.7, e)
-    h = outline * lift * (0.60 + 0.40 * rim - 0.30 * scapha + 0.25 * anti - 0.85 * concha
-                          + 0.15 * lobe)
-    tragus = 0.0045 * np.exp(-0.5 * (((u + 0.62) / 0.13) ** 2 + ((v + 0.15) / 0.15) ** 2))
-    return (h + tragus) * _smoothstep(0.045, 0.060, ax)
+_EAR_C = (0.019, 0.099)  # (y, z) of the middle of the ear
+_EAR_SIZE = (0.0170, 0.0322)  # half width and half height (m)
+
+
+def _ear(p, ax, detail):
+    """The auricle as a solid on the side of the head: a slab whose outline is an
+    egg leaning back 15 degrees, its lateral face turned 22 degrees toward the back
+    (the ear stands off the head most at the back of the helix), the space behind
+    it filled (so the head stays star-shaped), and the lateral face carved: helix,
+    scapha, antihelix, triangular fossa, concha, tragus, antitragus and lobe."""
+    dy, dz = p[:, 1] - _EAR_C[0], p[:, 2] - _EAR_C[1]
+    c, s_ = np.cos(np.radians(15.0)), np.sin(np.radians(15.0))
+    u = c * dy + s_ * dz  # toward the back of the head
+    v = -s_ * dy + c * dz  # up
+    au0, av = _EAR_SIZE
+    au = au0 * (1.0 - 0.24 * _smoothstep(0.0, -av, v))  # narrower toward the lobe
+    qu, qv = u / au, v / av
+    k0 = np.hypot(qu, qv)
+    k1 = np.hypot(qu / au, qv / av)
+    outline = k0 * (k0 - 1.0) / np.maximum(k1, 1e-12)
+    lobe = _smoothstep(-0.35, -0.85, qv)
+    lateral = 0.0750 + 0.52 * (u + au0) - 0.0050 * lobe
+    f = _smax(ax - lateral, outline, 0.0032)
+    # The lateral face: the helix's rim stands proud of the scapha inside it,
+    # which runs round the upper back; the antihelix between the scapha and the
+    # concha; the concha a deep bowl leading in toward the ear canal.
+    g = max(0.08, detail / au0)
+    upper_back = _smoothstep(-0.4, 0.3, qu + 0.8 * qv)
+    carve = 0.0026 * np.exp(-0.5 * ((k0 - 0.74) / g) ** 2) * upper_back
+    carve += 0.0018 * np.exp(-0.5 * (np.hypot((qu - 0.05) / 0.22, (qv - 0.50) / 0.16) ** 2))
+    carve += 0.0070 * np.exp(-(np.hypot((qu + 0.14) / 0.44, (qv + 0.13) / 0.40) ** 4))
+    carve += 0.0020 * np.exp(-0.5 * (np.hypot((qu + 0.30) / 0.30, (qv - 0.20) / 0.14) ** 2))
+    # Tragus and antitragus, either side of the notch under the concha.
+    carve -= 0.0030 * np.exp(-0.5 * (((qu + 0.72) / 0.14) ** 2 + ((qv + 0.16) / 0.15) ** 2))
+    carve -= 0.0016 * np.exp(-0.5 * (((qu + 0.05) / 0.16) ** 2 + ((qv + 0.58) / 0.10) ** 2))
+    return f + carve
 
 
 # Eye geometry (left eye; the right is mirrored). Metres.
 _EYE_C = np.array([0.0315, -0.0660, 0.1165])  # centre of the eyeball
-_EYE_R = 0.0122  # eyeball radius (the cornea bulges 1 mm more)
-_CANTHUS_IN = (0.0165, 0.1155)  # (x, z) of the inner corner of the eye
-_CANTHUS_OUT = (0.0455, 0.1185)  # outer corner: a slight upward canthal tilt
+_EYE_R = 0.0122  # eyeball radius (the cornea bulges up to 2.8 mm more)
+_CANTHUS_IN = (0.0162, 0.1152)  # (x, z) of the inner corner of the eye
+_CANTHUS_OUT = (0.0462, 0.1187)  # outer corner: a slight upward canthal tilt
 
 
 def _fissure(ax, z):
-    """Signed vertical distance (m) into the palpebral fissure (> 0 between the
-    lid margins), and the position ``s`` (0 inner corner, 1 outer) along it."""
+    """Heights (m) above the upper lid's margin and below the lower lid's (both
+    negative inside the palpebral fissure), and the position ``s`` (0 inner
+    corner, 1 outer) along it."""
     (xi, zi), (xo, zo) = _CANTHUS_IN, _CANTHUS_OUT
     s = (ax - xi) / (xo - xi)
     b = np.clip(4.0 * s * (1.0 - s), 0.0, None)
     zc = zi + (zo - zi) * s
     # The upper lid peaks a little medial of the pupil, the lower lid lateral of it.
     upper = zc + 0.0056 * b ** 0.62 * (1.0 - 0.18 * (s - 0.42))
-    lower = zc - 0.0046 * b ** 0.95 * (1.0 + 0.20 * (s - 0.55))
-    return np.minimum(upper - z, z - lower), s
+    lower = zc - 0.0050 * b ** 0.95 * (1.0 + 0.20 * (s - 0.55))
+    return z - upper, lower - z, s
 
 
 def _eyes(m, detail):
@@ -314,23 +487,31 @@ def _eyes(m, detail):
     q = m - _EYE_C
     r = np.sqrt(np.einsum("ij,ij->i", q, q))
     rho = np.hypot(q[:, 0], q[:, 2])  # distance from the visual axis
-    cornea = 0.0011 * np.exp(-((rho / 0.0058) ** 4))  # the iris disc, its rim a step
-    pupil = 0.0007 * np.exp(-0.5 * (rho / 0.0017) ** 2)
-    ball = r - (_EYE_R + cornea - pupil)
-    o, s = _fissure(m[:, 0], m[:, 2])
-    w = max(0.0007, 0.7 * detail)
-    # Lid thickness over the ball: 2.4 mm, less toward the corners, sinking into the
-    # fissure. The shell is the lids; where it sinks the eyeball shows.
-    corner = np.clip(4.0 * s * (1.0 - s), 0.0, 1.0) ** 0.25
+    # The cornea bulges over the iris, whose face is a shallow dish round the pupil.
+    cornea = 0.0028 * np.clip(1.0 - (rho / 0.0068) ** 2, 0.0, None) ** 1.2
+    iris = 0.0003 * np.exp(-((rho / 0.0048) ** 4))
+    pupil = 0.0020 * np.exp(-0.5 * (rho / 0.0009) ** 2)
+    ball = r - (_EYE_R + cornea - iris - pupil)
+    d_up, d_lo, s = _fissure(m[:, 0], m[:, 2])
+    inside = -np.maximum(d_up, d_lo)  # > 0 in the fissure
+    w = max(0.0006, 0.6 * detail)
+    corner = np.clip(4.0 * s * (1.0 - s), 0.0, 1.0) ** 0.3
+    # Upper lid: the margin a ledge over the eye, the tarsal plate hugging the ball up
+    # to the lid crease, the skin above it folding forward toward the brow.
+    crease_h = 0.0035 + 0.0035 * corner
+    t_up = (0.0015 + 0.0005 * _smoothstep(0.0, 0.003, d_up)
+            - 0.0005 * _groove(d_up - crease_h, 0.0007, detail) * corner
+            + 0.0032 * _smoothstep(crease_h, crease_h + 0.006, d_up))
+    # Lower lid: a thinner margin, the pretarsal roll under it, then the cheek.
+    t_lo = (0.0013 + 0.0004 * _smoothstep(0.0, 0.002, d_lo)
+            + 0.0004 * np.exp(-0.5 * ((d_lo - 0.0030) / 0.0015) ** 2) * corner
+            + 0.0020 * _smoothstep(0.005, 0.011, d_lo))
+    t = np.where(m[:, 2] > _EYE_C[2] + 0.002 * (s - 0.5), t_up, t_lo)
     # Toward the corners the lids part more gently, so the rays from ORIGIN, which
     # cross the outer corner obliquely, still meet one surface.
-    soft = w * (1.0 + 10.0 * (1.0 - corner))
-    thick = (0.0012 + 0.0014 * corner) - 0.0060 * (0.3 + 0.7 * corner) * _smoothstep(-0.2 * w, soft, o)
-    # The upper lid's skin folds up under the brow at the lid crease.
-    zc = 0.1165 + 0.0080 - 0.0030 * (2.0 * s - 1.0) ** 2
-    crease = _smoothstep(zc - 0.0015, zc + 0.0040, m[:, 2]) * _smoothstep(-0.1, 0.2, s) \
-        * _smoothstep(1.3, 0.8, s)
-    lids = r - (_EYE_R + thick + 0.0016 * crease)
+    soft = w * (1.0 + 8.0 * (1.0 - corner))
+    t = t - 0.0055 * (0.3 + 0.7 * corner) * _smoothstep(-0.3 * w, soft, inside)
+    lids = r - (_EYE_R + t)
     return ball, lids
 
 
@@ -348,37 +529,29 @@ def head_field(p, detail=0.0):
     # Cranium: an egg, narrower at the forehead than over the parietals, and
     # shorter behind its middle than in front (19 cm from the glabella to the
     # back of the head): y behind the middle is stretched before evaluating it.
-    widen = 1.0 + 0.07 * np.clip(y / 0.1, -1.0, 1.0)
+    widen = 1.0 + np.where(y < 0.0, 0.04, 0.07) * np.clip(y / 0.1, -1.0, 1.0)
     yc = np.where(y > 0.014, 0.014 + (y - 0.014) * (0.099 / 0.082), y)
     pc = np.stack([x / widen, yc, z], axis=1)
-    f = _superellipsoid(pc, (0.0, 0.014, 0.133), (0.074, 0.099, 0.090), 2.4)
-
-    # Mid-face (maxilla, cheeks) and the mouth region.
-    f = _smin(f, _ellipsoid(p, (0.0, -0.026, 0.088), (0.067, 0.068, 0.052)), 0.02)
-    f = _smin(f, _ellipsoid(p, (0.0, -0.042, 0.052), (0.038, 0.057, 0.042)), 0.035)
-    # The buccal pad: fills the cheek between the mouth, the cheekbone and the jaw,
-    # so no valley runs from the mouth corner down to the jaw.
-    f = _smin(f, _ellipsoid(m, (0.026, -0.044, 0.058), (0.019, 0.038, 0.028)), 0.02)
-
-    # Mandible: chin bar, bodies to the jaw angles, rami up to the ears.
-    jaw = _round_cone(m, (0.0, -0.068, 0.023), (0.010, -0.066, 0.024), 0.014, 0.014)
-    jaw = _smin(jaw, _round_cone(m, (0.010, -0.066, 0.024), (0.046, -0.006, 0.034),
-                                 0.014, 0.012), 0.01)
-    jaw = _smin(jaw, _round_cone(m, (0.046, -0.006, 0.034), (0.052, 0.010, 0.085),
-                                 0.012, 0.012), 0.01)
-    f = _smin(f, jaw, 0.03)
-
-    # Neck.
-    f = _smin(f, _round_cone(p, *_NECK), 0.028)
+    f = _superellipsoid(pc, (0.0, 0.014, 0.135), (0.074, 0.099, 0.091), 2.4)
+    f = _smin(f, _face_mass(p), 0.015)
+    f = _smin(f, _neck(p), 0.02)
 
     # Relief along the normal, evaluated only where it can be non-zero.
-    front = y < -0.02
+    front = y < -0.005
     if front.any():
         pf = p[front]
-        f[front] -= _face_relief(pf, m[front], detail) * _smoothstep(-0.02, -0.06, pf[:, 1])
-    ear = (ax > 0.045) & (np.abs(y - _EAR_C[0]) < 0.024) & (np.abs(z - _EAR_C[1]) < 0.040)
+        f[front] -= _face_relief(pf, m[front], detail) * _smoothstep(-0.005, -0.045, pf[:, 1])
+    ear = (ax > 0.055) & (np.abs(y - _EAR_C[0]) < 0.032) & (np.abs(z - _EAR_C[1]) < 0.042)
     if ear.any():
-        f[ear] -= _ear_relief(p[ear], ax[ear], detail)
+        f[ear] = _smin(f[ear], _ear(p[ear], ax[ear], detail), 0.004)
+
+    # The nose, a solid joined onto the face; the alae with a crease round them.
+    near = (ax < 0.035) & (y < -0.075) & (z > 0.055) & (z < 0.145)
+    if near.any():
+        fn, ala, nostril = _nose(p[near], m[near])
+        fn = _smin(f[near], fn, 0.0080)
+        fn = _smin(fn, ala, 0.0012)
+        f[near] = _smax(fn, -nostril, 0.0015)
 
     # Eyes: the lids blend into the socket, the eyeballs show between them.
     near = (np.abs(np.abs(x) - _EYE_C[0]) < 0.03) & (np.abs(z - _EYE_C[2]) < 0.03) & (y < -0.03)
@@ -386,7 +559,7 @@ def head_field(p, detail=0.0):
         pe = p[near].copy()
         pe[:, 0] = np.abs(pe[:, 0])
         ball, lids = _eyes(pe, detail)
-        fe = _smin(f[near], lids, 0.0022)
+        fe = _smin(f[near], lids, 0.0015)
         f[near] = np.minimum(fe, ball)
     return f
 
@@ -466,6 +639,25 @@ def _grid_size(target_verts):
     return cols, rows
 
 
+def _pupil_angles():
+    """Azimuth and elevation, seen from ORIGIN, of the left pupil."""
+    pupil = _EYE_C - (0.0, _EYE_R, 0.0)
+    d = pupil - ORIGIN
+    return np.arctan2(d[0], -d[1]), np.arctan2(d[2], np.hypot(d[0], d[1]))
+
+
+def _snap(a, target, periodic=False, reach=5):
+    """Shift the sorted samples ``a`` so that the one nearest ``target`` lands on it,
+    spreading the shift over ``reach`` samples either side (a gentle, monotone
+    change of spacing)."""
+    i = int(np.argmin(np.abs(a - target)))
+    k = np.arange(len(a))
+    d = np.abs(k - i)
+    if periodic:
+        d = np.minimum(d, len(a) - d)
+    return a + (target - a[i]) * np.clip(1.0 - d / reach, 0.0, 1.0)
+
+
 def _band_rays(cols, rows, field):
     """Ray origins and directions of the band, neck ring first, row-major."""
     s = np.linspace(-np.pi, np.pi, cols, endpoint=False)
@@ -475,6 +667,11 @@ def _band_rays(cols, rows, field):
     rows_neck = max(3, int(round(0.07 * rows)))
     el = _warp(np.linspace(0.0, 1.0, rows - rows_neck), _EL_LOW, _EL_CAP,
                np.radians(-44), np.radians(48), np.radians(14), 0.45)
+    # A ray through each pupil, so that the eye landmark is a vertex on the axis.
+    az_p, el_p = _pupil_angles()
+    az0 = _snap(az0, az_p, periodic=True)
+    az0 = _snap(az0, -az_p, periodic=True)
+    el = _snap(el, el_p)
     az = np.broadcast_to(az0, (len(el), cols))
     # The lowest ray of each column meets the neck wall at z = _NECK_TOP ...
     flat = _directions(az0, np.zeros(cols))
@@ -535,7 +732,7 @@ def _neighbours(n_verts, quads):
     return nb
 
 
-def _crown(az, el, n_verts, quads, cap, polar):
+def _crown(az, el, n_verts, quads, cap, polar, nb):
     """2D azimuthal-equidistant coordinates of the crown: the cap is a Coons
     patch of its ring, then cap and the rows above _EL_FIXED are relaxed by
     umbrella smoothing so the four valence-3 corners open up."""
@@ -553,13 +750,88 @@ def _crown(az, el, n_verts, quads, cap, polar):
     q[cap[1:m, 1:m].ravel()] = coons[1:m, 1:m].reshape(-1, 2)
 
     idx = np.flatnonzero(polar)
-    nb = _neighbours(n_verts, quads)[idx]
+    nb = nb[idx]
     valid = nb >= 0
     nb = np.where(valid, nb, 0)
     weight = valid / valid.sum(1, keepdims=True)
     for _ in range(250):
         q[idx] = np.einsum("ik,ikj->ij", weight, q[nb])
     return q
+
+
+def _gradient(field, p, f0, h=2e-5):
+    """Forward-difference gradient of ``field`` at ``p`` (whose values are ``f0``)."""
+    g = np.empty_like(p)
+    for k in range(3):
+        q = p.copy()
+        q[:, k] += h
+        g[:, k] = (field(q) - f0) / h
+    return g
+
+
+def _vertex_normals(x, quads, n_verts):
+    """Area-weighted unit normals of the quad mesh ``x``."""
+    fn = np.cross(x[quads[:, 2]] - x[quads[:, 0]], x[quads[:, 3]] - x[quads[:, 1]])
+    vn = np.zeros((n_verts, 3))
+    for k in range(4):
+        np.add.at(vn, quads[:, k], fn)
+    return vn / np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-12)
+
+
+def _relax(hits, origins, dirs, quads, nb, fixed, field, iterations=8, step=0.6, rings=4):
+    """Slide the ray hits over the surface so that the quads where the rays graze
+    it (under the nose, round the ears and the lids) become as even as their
+    neighbours.
+
+    Only the vertices where a ray meets the surface at a glancing angle, and a
+    few rings round them, move. Each step moves every one of them toward the
+    weighted mean of its neighbours, within the tangent plane, then back onto the
+    surface along the gradient (x <- x - f grad f / |grad f|^2). The weights are
+    the inverse angular spacing of the rays, so the grid's designed density (dense
+    face, sparse back) is the resting state and only the grazing regions move."""
+    n = len(hits)
+    valid = nb >= 0
+    nbi = np.where(valid, nb, 0)
+    grazing = np.abs(np.einsum("ij,ij->i", _vertex_normals(hits, quads, n), dirs)) < 0.55
+    active = grazing.copy()
+    for _ in range(rings):
+        active |= (active[nbi] & valid).any(axis=1)
+    idx = np.flatnonzero(active & ~fixed)
+    if len(idx) == 0:
+        return hits
+    nbi, valid = nbi[idx], valid[idx]
+    # Parameter length of each edge: its extent across the rays, over the distance.
+    dp = hits[nbi] - hits[idx, None, :]
+    dbar = dirs[nbi] + dirs[idx, None, :]
+    dbar /= np.maximum(np.linalg.norm(dbar, axis=2, keepdims=True), 1e-12)
+    perp = dp - np.einsum("ijk,ijk->ij", dp, dbar)[..., None] * dbar
+    reach = np.linalg.norm(hits - origins, axis=1)
+    rbar = 0.5 * (reach[nbi] + reach[idx, None])
+    h = np.linalg.norm(perp, axis=2) / np.maximum(rbar, 1e-9)
+    w = np.where(valid, 1.0 / np.maximum(h, 1e-6), 0.0)
+    w /= w.sum(axis=1, keepdims=True)
+    x = hits.copy()
+    xi = x[idx]
+    f = field(xi)
+    for it in range(iterations + 1):
+        g = _gradient(field, xi, f)
+        g2 = np.maximum(np.einsum("ij,ij->i", g, g), 1e-12)
+        if it == iterations:  # a last projection onto the surface
+            x[idx] = xi - (f / g2)[:, None] * g
+            break
+        nrm = g / np.sqrt(g2)[:, None]
+        lap = np.einsum("ik,ikj->ij", w, x[nbi]) - xi
+        lap -= np.einsum("ij,ij->i", lap, nrm)[:, None] * nrm
+        # at most a quarter of the shortest edge per step, so no quad folds
+        move = step * lap
+        size = np.linalg.norm(move, axis=1)
+        near = np.min(np.where(valid, np.linalg.norm(x[nbi] - xi[:, None, :], axis=2), np.inf), axis=1)
+        xi = xi + move * np.minimum(1.0, 0.25 * near / np.maximum(size, 1e-12))[:, None]
+        f = field(xi)
+        xi = xi - (f / g2)[:, None] * g
+        f = field(xi)
+        x[idx] = xi
+    return x
 
 
 # --------------------------------------------------------------------------
@@ -602,29 +874,72 @@ def _corner_uvs(positions, az, q, polar, quads, cols):
 # --------------------------------------------------------------------------
 # Landmarks
 # --------------------------------------------------------------------------
-# (x, z) seen from the front, for the left side (the right is mirrored).
+# (x, z) seen from the front, for the left side (the right is mirrored), of the
+# landmarks that sit at a fixed place of the model; the others are found on the
+# surface by their anatomical definition (``_landmarks``).
 _FRONT_LANDMARKS = {
-    "glabella": (0.0, 0.129),
-    "brow_inner_L": (0.014, 0.129),
-    "brow_mid_L": (0.032, 0.1345),
-    "brow_outer_L": (0.049, 0.1325),
-    "hairline_center": (0.0, 0.188),
-    "hairline_L": (0.032, 0.184),
-    "eye_L": (0.0315, 0.1165),
-    "nose_bridge": (0.0, 0.112),
-    "nose_ala_L": (0.0165, 0.0755),
-    "cheekbone_L": (0.052, 0.098),
-    "mouth_corner_L": (0.0243, 0.0469),
-    "upper_lip": (0.0, 0.0510),
-    "lower_lip": (0.0, 0.0428),
-    "chin": (0.0, 0.0215),
-    "jaw_L": (0.029, 0.0235),
+    "eye_L": (_EYE_C[0], _EYE_C[2]),  # the pupil, on the eyeball's visual axis
+    "nose_ala_L": (0.0172, 0.0752),  # the wing, just inside its most lateral point
+    "cheekbone_L": (0.0515, 0.0970),  # the malar eminence's summit
+    "mouth_corner_L": (0.0243, 0.0469),  # where the lips meet at the side
+    "jaw_L": (0.029, 0.0235),  # the chin's side, over the mandible
 }
+_BROWS = {"brow_inner_L": 0.014, "brow_mid_L": 0.032, "brow_outer_L": 0.049}
+_HAIRLINE = {"hairline_center": 0.0, "hairline_L": 0.032}
+_HAIRLINE_SLOPE = np.radians(40.0)  # the forehead turns into the crown
+
+
+def _front_profile(field, x, zs):
+    """y of the front surface at ``x`` for each of ``zs`` (seen along +Y)."""
+    starts = np.column_stack([np.full(len(zs), x), np.full(len(zs), -0.14), zs])
+    return _project(starts, np.tile([0.0, 1.0, 0.0], (len(zs), 1)), field, length=0.1)[:, 1]
 
 
 def _landmarks(positions, field):
+    """Every landmark of ``LANDMARK_NAMES`` at its feature, as an anatomist puts it,
+    snapped to the nearest vertex:
+
+    * on the midline profile: the nasion (its deepest point at the eyes), the
+      glabella (the most forward point above it), the hairline (where the profile
+      leans back 40 degrees, the forehead turning into the crown), the nose tip
+      (the most forward point of the nose), the lips (the most forward points of
+      the vermilion above and below the mouth line) and the chin (the most forward
+      point under the mentolabial sulcus);
+    * the brows: on the crest of the brow ridge (``_brow_z``) at the inner, middle
+      and outer brow;
+    * the pupils, the alae, the cheekbones, the mouth corners and the jaw at the
+      model's own positions; the lateral cheek 60 degrees round from the front at
+      the mouth's height."""
+    xz = {}
+    zs = np.arange(0.110, 0.150, 0.0005)
+    y = _front_profile(field, 0.0, zs)
+    eyes = zs < 0.128
+    nasion = zs[eyes][np.argmax(y[eyes])]
+    above = (zs >= nasion) & (zs <= nasion + 0.025)
+    glabella = zs[above][np.argmin(y[above])]
+    xz["glabella"] = (0.0, glabella)
+    xz["nose_bridge"] = (0.0, _EYE_C[2] - 0.004)
+    for name, x in _BROWS.items():
+        xz[name] = (x, _brow_z(x))
+    for name, x in _HAIRLINE.items():
+        zh = np.arange(glabella + 0.03, glabella + 0.09, 0.0005)
+        yh = _front_profile(field, x, zh)
+        lean = np.arctan(np.gradient(yh, zh))
+        xz[name] = (x, zh[np.argmax(lean >= _HAIRLINE_SLOPE)])
+    zm = np.arange(0.036, 0.060, 0.0002)
+    ym = _front_profile(field, 0.0, zm)
+    mouth = zm[np.argmax(np.where((zm > 0.044) & (zm < 0.052), ym, -1.0))]  # the mouth line
+    xz["upper_lip"] = (0.0, zm[zm > mouth][np.argmin(ym[zm > mouth])])
+    xz["lower_lip"] = (0.0, zm[zm < mouth][np.argmin(ym[zm < mouth])])
+    zc = np.arange(0.008, 0.040, 0.0005)
+    yc = _front_profile(field, 0.0, zc)
+    sulcus = zc[np.argmax(np.where(zc > 0.026, yc, -1.0))]
+    below = zc < sulcus
+    xz["chin"] = (0.0, zc[below][np.argmin(yc[below])])
+    xz.update(_FRONT_LANDMARKS)
+
     names, starts, dirs = [], [], []
-    for name, (x, z) in _FRONT_LANDMARKS.items():
+    for name, (x, z) in xz.items():
         sides = [(name, x)] if not name.endswith("_L") else [(name, x), (name[:-2] + "_R", -x)]
         for n, xx in sides:
             names.append(n)
@@ -640,8 +955,8 @@ def _landmarks(positions, field):
     out = {}
     for name, hit in zip(names, hits):
         out[name] = positions[np.argmin(np.einsum("ij,ij->i", pos - hit, pos - hit))]
-    # The nose tip is the most forward vertex of the nose.
-    near = (np.abs(pos[:, 0]) < 0.01) & (np.abs(pos[:, 2] - 0.082) < 0.012)
+    # The nose tip is the most forward vertex of the nose, on the midline.
+    near = (np.abs(pos[:, 0]) < 0.0015) & (np.abs(pos[:, 2] - 0.082) < 0.012)
     out["nose_tip"] = positions[np.flatnonzero(near)[np.argmin(pos[near, 1])]]
     return {n: out[n].astype(np.float32).copy() for n in LANDMARK_NAMES}
 
@@ -670,7 +985,8 @@ def make_head(target_verts=40000):
     polar[n_band:] = True
     polar[:n_band] = np.repeat(el_row > _EL_FIXED, cols)
     el = np.arcsin(np.clip(dirs[:, 2], -1.0, 1.0))
-    q = _crown(az, el, n_verts, quads, cap, polar)
+    nb = _neighbours(n_verts, quads)
+    q = _crown(az, el, n_verts, quads, cap, polar, nb)
     theta = np.hypot(q[:, 0], q[:, 1])
     az_all = np.concatenate([az, np.zeros(n_verts - n_band)])
     az_all[polar] = np.arctan2(q[polar, 0], -q[polar, 1])
@@ -678,8 +994,15 @@ def make_head(target_verts=40000):
     all_dirs = np.concatenate([dirs, np.zeros((n_verts - n_band, 3))])
     all_dirs[polar] = _directions(az_all[polar], 0.5 * np.pi - theta[polar])
     t = _cast(origins, all_dirs, field)
-    positions = (origins + t[:, None] * all_dirs).astype(np.float32)
-    corner_uvs = _corner_uvs(positions, az_all[:n_band], q, polar, quads, cols)
+    hits = origins + t[:, None] * all_dirs
+    corner_uvs = _corner_uvs(hits.astype(np.float32), az_all[:n_band], q, polar, quads, cols)
+    border = np.zeros(n_verts, bool)
+    border[:cols] = True  # the neck ring stays in its plane
+    az_p, el_p = _pupil_angles()
+    for sign in (1.0, -1.0):  # and the pupils on their axes
+        pupil = _directions(sign * az_p, el_p)
+        border[np.argmax(all_dirs[:n_band] @ pupil)] = True
+    positions = _relax(hits, origins, all_dirs, quads, nb, border, field).astype(np.float32)
     return {"positions": positions, "quads": quads, "corner_uvs": corner_uvs,
             "landmarks": _landmarks(positions, field)}
 

@@ -113,12 +113,6 @@ def test_ict_geometry_rule_alone(ict):
     _check(found, ref)
 
 
-@pytest.mark.xfail(reason="the hairline: a bald head shows none, so the finder puts it at a fixed "
-                   "proportion of the eye distance above the glabella; the procedural head's brow is flat "
-                   "on the midline, its most forward point (the found glabella) 4 mm above the generator's "
-                   "glabella, and the hairline inherits that: 5.4 mm from the generator's (every other "
-                   "landmark is within 5 mm)",
-                   strict=False)
 def test_procedural_head_within_5mm(head):
     found, _method, _message = lf.find_landmarks(head["positions"], head["quads"])
     _check(found, head["landmarks"])
@@ -225,10 +219,7 @@ def test_geometry_rule_on_a_coarser_mesh(head_found):
     coarse = headgen.make_head(15000)
     found, method, _m = lf.find_landmarks(coarse["positions"], coarse["quads"])
     assert method == "geometry"
-    # The glabella of the coarse head is the profile's most forward point over a brow
-    # drawn with fewer rows: 5.6 mm from the generator's, as before the eyes were made
-    # robust, so only its stability is checked.
-    _check_stable(found, head_found, coarse["landmarks"], skip_ref=("hairline_center", "glabella"))
+    _check_stable(found, head_found, coarse["landmarks"])
 
 
 def _sphere(n=48):

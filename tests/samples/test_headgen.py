@@ -249,7 +249,7 @@ def test_head_adult_proportions(head):
     lm = head["landmarks"]
     crown = p[:, 2].max()
     midline = np.abs(p[:, 0]) < 0.004
-    menton = p[midline & (p[:, 1] < -0.04), 2].min()  # lowest point of the chin
+    menton = p[midline & (p[:, 1] < lm["chin"][1] + 0.03), 2].min()  # lowest point of the chin
     eye_z = lm["eye_L"][2]
     assert abs(eye_z - 0.5 * (crown + menton)) < 0.012 * (crown - menton) / 0.1
     # Thirds: hairline-glabella, glabella-subnasale, subnasale-menton within 20 %.
@@ -386,3 +386,85 @@ def test_head_folds_are_soft():
         assert _depth_curvature(c - 0.006 * normal, c + 0.006 * normal).min() > -250, t
     for z in (0.030, 0.035, 0.040):
         assert _depth_curvature((0.028, z), (0.050, z)).max() < 300, z
+
+
+def test_head_glabella_over_the_nasion(head):
+    """The glabella is the most prominent point of the brow on the midline, with the
+    nasion's dip below it: the profile's most forward point above the nasion, standing
+    out of it by a couple of millimetres (a flat brow puts it wherever the forehead
+    happens to lean furthest forward)."""
+    lm = head["landmarks"]
+    g = lm["glabella"].astype(np.float64)
+    zs = np.arange(0.110, 0.160, 0.001)
+    y = headgen._front_profile(headgen.head_field, 0.0, zs)
+    eyes = (zs > lm["eye_L"][2] - 0.006) & (zs < g[2])
+    nasion_z, nasion_y = zs[eyes][np.argmax(y[eyes])], y[eyes].max()
+    assert lm["eye_L"][2] < nasion_z < g[2] - 0.006  # a centimetre below the glabella
+    assert g[1] < nasion_y - 0.002
+    above = (zs > nasion_z) & (zs < nasion_z + 0.03)
+    assert abs(zs[above][np.argmin(y[above])] - g[2]) < 0.0015
+    # The forehead leans back from there, and the hairline is where it turns into the crown.
+    hair = lm["hairline_center"].astype(np.float64)
+    assert 0.05 < hair[2] - g[2] < 0.07
+    y0, y1 = headgen._front_profile(headgen.head_field, 0.0, np.array([hair[2] - 0.001, hair[2] + 0.001]))
+    assert 30.0 < np.degrees(np.arctan((y1 - y0) / 0.002)) < 50.0
+
+
+def test_head_neck_and_ears_are_adult_sized(head):
+    """The neck is 11-12.5 cm wide under the jaw (three quarters of the skull's
+    breadth), spreading toward the shoulders; the ears are 5.5-7 cm tall and stand out
+    of the side of the head by more than a centimetre and a half at the helix."""
+    p = head["positions"].astype(np.float64)
+    neck = [np.ptp(p[np.abs(p[:, 2] - z) < 0.003, 0]) for z in (-0.03, -0.02, -0.01)]
+    assert 0.11 < min(neck) < 0.125
+    skull = p[np.abs(p[:, 2] - 0.15) < 0.003]
+    assert 0.7 < min(neck) / np.ptp(skull[:, 0]) < 0.85
+    assert np.ptp(p[np.abs(p[:, 2] - headgen._NECK_CUT - 0.004) < 0.003, 0]) > min(neck) + 0.01
+    side = p[(np.abs(p[:, 0]) > 0.08) & (p[:, 1] > -0.01) & (p[:, 1] < 0.05)]
+    assert 0.055 < np.ptp(side[:, 2]) < 0.07  # only the ear reaches out there
+    skull_side = np.abs(p[(np.abs(p[:, 2] - 0.15) < 0.003) & (np.abs(p[:, 1] - 0.02) < 0.005), 0]).max()
+    assert np.abs(side[:, 0]).max() > skull_side + 0.015
+
+
+def test_head_quads_are_even_where_the_rays_graze(head):
+    """Under the nose and round the ears the rays from ORIGIN meet the surface at a
+    glancing angle; the vertices are slid over the surface there, so those quads are as
+    even as the rest of the face (no long slivers) and stay on the surface."""
+    p = head["positions"].astype(np.float64)
+    q = head["quads"]
+    e = np.stack([np.linalg.norm(p[q[:, (i + 1) % 4]] - p[q[:, i]], axis=1) for i in range(4)], 1)
+    aspect = e.max(axis=1) / e.min(axis=1)
+    c = p[q].mean(axis=1)
+    face = (c[:, 1] < -0.05) & (np.abs(c[:, 0]) < 0.05)
+    nose_base = (np.abs(c[:, 0]) < 0.02) & (c[:, 2] > 0.06) & (c[:, 2] < 0.085) & (c[:, 1] < -0.09)
+    ears = ((np.abs(c[:, 0]) > 0.06) & (c[:, 1] > -0.01) & (c[:, 1] < 0.05)
+            & (c[:, 2] > 0.06) & (c[:, 2] < 0.14))
+    assert aspect[face].max() < 4.0 and aspect[nose_base].max() < 4.0
+    assert np.percentile(aspect[ears], 95) < 4.5 and aspect[ears].max() < 8.0
+    assert e[nose_base].max() < 0.006
+    assert np.abs(headgen.head_field(p[::7], detail=0.00096)).max() < 2e-4  # on the surface
+
+
+def test_head_nasolabial_fold_lies_on_the_cheek_fat():
+    """Across the upper nasolabial fold (from beside the ala down toward the mouth
+    corner) the surface is most concave on the fold's line, and convex on the cheek
+    side of it, where the cheek's fat bulges."""
+    a, b = np.array([0.0195, 0.0750]), np.array([0.0335, 0.0395])  # the fold's line
+    d = b - a
+    lateral = -np.array([d[1], -d[0]]) / np.hypot(*d)  # toward the cheek
+    s = np.linspace(-0.008, 0.012, 41)[1:-1]  # across the fold, as _depth_curvature samples it
+    for t in (0.3, 0.5):
+        c = a + t * d
+        k = _depth_curvature(c - 0.008 * lateral, c + 0.012 * lateral, n=41)
+        assert abs(s[np.argmin(k)]) < 0.004, t
+        assert k[(s > 0.004) & (s < 0.010)].max() > 40.0, t
+
+
+def test_make_head_is_quick():
+    """make_head(40000) in well under the two seconds the demos can wait (CPU time, so
+    a busy machine does not fail it)."""
+    import time
+
+    start = time.process_time()
+    headgen.make_head(40000)
+    assert time.process_time() - start < 6.0
