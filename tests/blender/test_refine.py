@@ -142,3 +142,24 @@ def _decimated(data, target=2000):
     rigging.activate(ob)
     bpy.ops.object.modifier_apply(modifier=mod.name)
     return ob
+
+
+@pytest.mark.skipif(not DATA.exists(), reason=f"{DATA} not found")
+def test_refinement_leaves_no_point_on_top_of_another():
+    """A pentagon left by a pass, split again, used to give a triangle of no area and then a
+    point a micrometre from another (a dark dot in renders): they are welded."""
+    from mathutils.kdtree import KDTree
+
+    from sample_scenes.lib import ict, rigging
+
+    data = ict.load_ict(DATA)
+    face = ict.ict_object(data, name="ICTHead")
+    rigging.wrinkle_face(face, data["landmarks"], wrinkles_only=True)  # refines
+    co = meshio.read_vectors(face.data, "position")
+    assert len(co) > 20000
+    tree = KDTree(len(co))
+    for i, c in enumerate(co):
+        tree.insert(c, i)
+    tree.balance()
+    nearest = np.array([tree.find_n(c, 2)[1][2] for c in co])
+    assert nearest.min() > 1e-5, f"{int((nearest < 1e-5).sum())} points within 10 um of another"

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import bmesh
 import numpy as np
+from mathutils.kdtree import KDTree
 
 from ...core.muscles import refinement
 from .. import meshio
@@ -75,6 +76,34 @@ def _close_single_splits(bm, n_old):
         bmesh.utils.face_split(f, v, loop.link_loop_next.link_loop_next.vert)
 
 
+def _merge_coincident(bm, n_old, split_pairs, rest):
+    """Merge a new point that lands on an existing one.  A quad with one split edge stays a
+    pentagon with a straight corner at the new point; when a later pass splits both halves
+    of that edge, bmesh cuts the corner off as a triangle of no area, and the pass after
+    puts a point a micrometre from another: a dark dot in renders.  After the points are
+    placed, a new one within a hundredth of the split edges' median length of another is
+    welded to it (their faces of no area go).  Returns whether any was."""
+    if len(split_pairs) == 0:
+        return False
+    d = rest[split_pairs[:, 1]] - rest[split_pairs[:, 0]]
+    tol = 1e-2 * float(np.median(np.sqrt(np.einsum("ij,ij->i", d, d))))
+    bm.verts.ensure_lookup_table()
+    tree = KDTree(len(bm.verts))
+    for v in bm.verts:  # one insert a vertex: a pass's mesh, not a frame's
+        tree.insert(v.co, v.index)
+    tree.balance()
+    weld = {}
+    for v in bm.verts[n_old:]:
+        for _co, j, dist in tree.find_range(v.co, tol):
+            w = bm.verts[j]
+            if w is not v and dist < tol and w not in weld and v not in weld.values():
+                weld[v] = w
+                break
+    if weld:
+        bmesh.ops.weld_verts(bm, targetmap=weld)
+    return bool(weld)
+
+
 def bisect_pass(me, split_pairs, split_index):
     """One bisection pass over the edges ``split_index`` (``split_pairs`` their vertex pairs,
     from ``core.muscles.refinement.split_edges``); the new points placed smoothly.  Public
@@ -99,6 +128,14 @@ def bisect_pass(me, split_pairs, split_index):
     new[:, n_old:] += offsets
     _write_shapes(me, new)
     me.update()
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(me)
+        if _merge_coincident(bm, n_old, split_pairs, shapes[0]):
+            bm.to_mesh(me)
+            me.update()
+    finally:
+        bm.free()
 
 
 def refine(face, muscles, factor=4.0, max_vertices=1_000_000, progress=None):
