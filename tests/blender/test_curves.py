@@ -206,3 +206,30 @@ def _skin(face):
     out = np.empty((len(ev.vertices), 3), np.float32)
     ev.attributes["wrinkle_skin"].data.foreach_get("vector", out.ravel())
     return out
+
+
+@pytest.mark.skipif(bpy.app.version < (5, 0, 0),
+                    reason="bpy 4.5 cannot add annotation strokes from Python (strokes.new is missing)")
+def test_curve_from_an_annotation_stroke():
+    face = uv_face()
+    scene = bpy.context.scene
+    gp = bpy.data.annotations.new("Annotations")
+    scene.annotation = gp
+    stroke = gp.layers.new("Note").frames.new(1).strokes.new()
+    xs = np.linspace(-0.03, 0.03, 15)
+    pts = np.stack([xs, np.full_like(xs, -0.002), MID + 0.004 * np.sin(60 * xs)], 1)  # just off the skin
+    stroke.points.add(len(pts))
+    stroke.points.foreach_set("co", pts.astype(np.float32).ravel())
+    bpy.context.view_layer.objects.active = face
+    assert bpy.ops.wrinkle.curve_from_stroke() == {"FINISHED"}
+    ob = face.ewrinkles_face.wrinkle_curves.items[-1].object
+    co = np.array([p.co for p in ob.data.splines[0].bezier_points])
+    assert len(co) >= 2 and np.abs(co[:, 1]).max() < 1e-6  # snapped onto the skin (y = 0)
+    assert heights(face).min() < 0.0
+
+
+def test_curve_from_stroke_without_a_stroke_says_so():
+    face = uv_face()
+    bpy.context.view_layer.objects.active = face
+    with pytest.raises(RuntimeError, match="No annotation stroke"):
+        bpy.ops.wrinkle.curve_from_stroke()
