@@ -178,23 +178,10 @@ def curve_rows(lm, n_curves):
 
 def place_curves(bench, n_curves):
     """``n_curves`` wrinkle curves on ``bench``'s face (:func:`curve_rows`), snapped to its skin."""
-    import bpy
+    from sample_scenes.forehead_curves import add_curves
 
-    from sample_scenes.forehead_curves import project_front
-    from wrinkle_addon.glue.bando import curves
-
-    face = bench.ob
-    made = []
-    for i, xz in enumerate(curve_rows(bench.landmarks, n_curves)):
-        ob = curves.create(bpy.context, face, project_front(face, xz), name=f"Bench Curve {i + 1:02d}")
-        p = ob.ewrinkles_curve
-        p.depth, p.width, p.rest_height = CURVE_DEPTH, CURVE_WIDTH, CURVE_REST
-        made.append(ob)
-    lst = face.ewrinkles_face.wrinkle_curves
-    for i in range(len(lst.items)):
-        lst.active = i
-        assert bpy.ops.wrinkle.snap_curve() == {"FINISHED"}
-    return made
+    return add_curves(bench.ob, curve_rows(bench.landmarks, n_curves), "Bench Curve", CURVE_DEPTH,
+                      CURVE_WIDTH, CURVE_REST)
 
 
 def add_fine_attributes(bench):

@@ -224,15 +224,18 @@ def dense_lines(face, lm, samples=400):
     return out
 
 
-def add_lines(face, lm):
-    """The forehead lines as wrinkle curves of ``face``, snapped to its skin."""
+def add_curves(face, rows, name, depth, width, rest_height, taper=None):
+    """Wrinkle curves of ``face`` through the (x, z) ``rows`` projected onto its front,
+    snapped to its skin (``name`` 1, 2, ...).  Returns the curve objects."""
     from wrinkle_addon.glue.bando import curves
 
     made = []
-    for k, xz in enumerate(line_points(lm)):
-        ob = curves.create(bpy.context, face, project_front(face, xz), name=f"Forehead Line {k + 1}")
+    for k, xz in enumerate(rows):
+        ob = curves.create(bpy.context, face, project_front(face, xz), name=f"{name} {k + 1:02d}")
         s = ob.ewrinkles_curve
-        s.depth, s.width, s.rest_height, s.taper = DEPTH, WIDTH, 0.0, TAPER
+        s.depth, s.width, s.rest_height = depth, width, rest_height
+        if taper is not None:
+            s.taper = taper
         made.append(ob)
     rigging.activate(face)
     lst = face.ewrinkles_face.wrinkle_curves
@@ -240,6 +243,11 @@ def add_lines(face, lm):
         lst.active = i
         assert bpy.ops.wrinkle.snap_curve() == {"FINISHED"}
     return made
+
+
+def add_lines(face, lm):
+    """The forehead lines as wrinkle curves of ``face``, snapped to its skin."""
+    return add_curves(face, line_points(lm), "Forehead Line", DEPTH, WIDTH, 0.0, TAPER)
 
 
 def toggle(face, on):
