@@ -233,3 +233,32 @@ def test_curve_from_stroke_without_a_stroke_says_so():
     bpy.context.view_layer.objects.active = face
     with pytest.raises(RuntimeError, match="No annotation stroke"):
         bpy.ops.wrinkle.curve_from_stroke()
+
+
+def test_refine_splits_the_edges_around_a_curve_only():
+    from wrinkle_addon.core.bando import curves as core_curves
+    from wrinkle_addon.glue import meshio
+
+    face = uv_face()
+    ob = add_curve(face, width=0.003)
+    before = len(face.data.vertices)
+    bpy.context.view_layer.objects.active = face
+    assert bpy.ops.wrinkle.refine() == {"FINISHED"}  # no muscles: the curves' rule alone
+    rest = meshio.read_vectors(face.data, "position").astype(np.float64)
+    edges = meshio.read_edges(face.data).astype(np.int64)
+    from wrinkle_addon.glue.bando import curves
+
+    limit = core_curves.edge_limits(rest, edges, curves.face_space_samples(ob, face), [0.003])
+    length = np.linalg.norm(rest[edges[:, 1]] - rest[edges[:, 0]], axis=1)
+    assert np.all(length <= limit + 1e-9)
+    assert before < len(face.data.vertices) < 3 * before  # refined around the curve, not everywhere
+    far = np.abs(rest[:, 2] - MID) > 0.035
+    assert far.sum() > 0 and np.isinf(limit[far[edges].all(axis=1)]).all()
+    assert heights(face).min() < 0.0  # the curve still raises its wrinkle on the finer mesh
+
+
+def test_refine_without_muscles_or_curves_says_so():
+    face = uv_face()
+    bpy.context.view_layer.objects.active = face
+    with pytest.raises(RuntimeError, match="no muscles and no wrinkle curves"):
+        bpy.ops.wrinkle.refine()

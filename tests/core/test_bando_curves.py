@@ -428,3 +428,22 @@ def test_pigment_is_eq6_clipped():
     np.testing.assert_allclose(c[1], base - 0.5 * a_m - 0.1 * a_h)
     np.testing.assert_allclose(c[2], [0.0, 0.0, 0.0])  # clipped
     np.testing.assert_allclose(curves.pigment([0.5, 2.0, 0.5], 0.0, 0.0, a_m, a_h), [0.5, 1.0, 0.5])
+
+
+def test_refinement_limits_follow_the_curve():
+    n = 41
+    x, y = np.meshgrid(np.linspace(0, 0.1, n), np.linspace(0, 0.1, n))
+    pos = np.stack([x.ravel(), y.ravel(), np.zeros(n * n)], 1)
+    idx = np.arange(n * n).reshape(n, n)
+    edges = np.concatenate([np.stack([idx[:, :-1].ravel(), idx[:, 1:].ravel()], 1),
+                            np.stack([idx[:-1].ravel(), idx[1:].ravel()], 1)])
+    w = 0.002
+    line = np.stack([np.linspace(0.02, 0.08, 200), np.full(200, 0.05), np.zeros(200)], 1)
+    limit = curves.edge_limits(pos, edges, [line], [w])
+    mid = pos[edges].mean(axis=1)
+    dist = np.abs(mid[:, 1] - 0.05)
+    inside = (mid[:, 0] > 0.03) & (mid[:, 0] < 0.07)
+    np.testing.assert_allclose(limit[inside & (dist < 0.001)], curves.REFINE_NEAR * w)
+    assert np.all(np.isinf(limit[dist > curves.CUTOFF * w + 0.003]))
+    assert np.all(limit[inside & (dist > 0.009) & (dist < 0.017)] == curves.REFINE_FAR * w)
+    assert np.isinf(curves.edge_limits(pos, edges, [line], [0.0])).all()  # w = 0: nothing

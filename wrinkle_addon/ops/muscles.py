@@ -23,6 +23,7 @@ from mathutils import Vector
 from ..core.muscles import landmark_finder, presets
 from ..glue import drivers, faces
 from ..glue import frame as pipeline
+from ..glue.bando import curves as bando_curves
 from ..glue.errors import WrinkleError
 from ..glue.muscles import landmarks, refine
 from ..glue.muscles import objects as muscle_objects
@@ -307,9 +308,10 @@ class WRINKLE_OT_drive_contraction(bpy.types.Operator):
 
 
 class WRINKLE_OT_refine(bpy.types.Operator):
-    """Split the edges where the wrinkles need it until every half wrinkle cycle spans at
-    least the given number of edges; new points follow the smooth surface (keeps UVs, shape
-    keys, vertex groups and materials)"""
+    """Split the edges where the wrinkles need it until every half wrinkle cycle of the
+    muscles spans at least the given number of edges, and the edges around the wrinkle curves
+    are short enough for their sharp furrows; new points follow the smooth surface (keeps
+    UVs, shape keys, vertex groups and materials)"""
 
     bl_idname = "wrinkle.refine"
     bl_label = "Refine Wrinkling Regions"
@@ -332,12 +334,14 @@ class WRINKLE_OT_refine(bpy.types.Operator):
     def execute(self, context):
         face = _face(context)
         muscles = muscle_objects.live_muscles(face)
-        if not muscles:
-            raise WrinkleError("This face has no muscles, so there is no wrinkling region to refine")
+        around_curves = bando_curves.refine_need(face)
+        if not muscles and around_curves is None:
+            raise WrinkleError("This face has no muscles and no wrinkle curves, so there is no "
+                               "wrinkling region to refine")
         before = len(face.data.vertices)
         with Progress(context, "Refine Wrinkling Regions", total=refine.MAX_PASSES) as progress:
             result = refine.refine(face, muscles, self.edges_per_half_cycle, self.max_vertices,
-                                   progress=lambda i: progress(i, f"pass {i + 1}"))
+                                   progress=lambda i: progress(i, f"pass {i + 1}"), extra=around_curves)
         after = len(face.data.vertices)
         if result.message:  # set only when the rule is still broken
             self.report({"WARNING"}, result.message)

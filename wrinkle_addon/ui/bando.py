@@ -35,6 +35,7 @@ def draw_face_curves(layout, context, face):
     row = layout.row(align=True)
     row.operator("wrinkle.use_curve", icon="CURVE_DATA")
     row.operator("wrinkle.snap_curve", icon="SNAP_FACE")
+    layout.operator("wrinkle.refine", icon="MOD_SUBSURF")
     if 0 <= lst.active < len(lst.items) and lst.items[lst.active].object is not None:
         s = lst.items[lst.active].object.ewrinkles_curve
         col = layout.column()

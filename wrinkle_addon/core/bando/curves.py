@@ -654,3 +654,40 @@ def merge_plans(plans):
         np.concatenate([p.u for p in plans]), offsets.astype(np.int64),
         np.concatenate([p.lengths for p in plans]), np.unique(verts),
     )
+
+
+# --------------------------------------------------------------------------- refinement
+REFINE_REACH, REFINE_NEAR, REFINE_FAR = 4.0, 0.45, 1.2  # in wrinkle widths
+
+
+def edge_limits(positions, edges, polylines, widths):
+    """The longest each edge may be (E,) for the large-scale wrinkles of §6 (inf where no
+    curve reaches): the paper refines "around the specified wrinkle locations" when the mesh
+    is too coarse for them.  Within ``REFINE_REACH`` widths of a curve, where the furrow and
+    the bulges' flanks are, an edge spans at most ``REFINE_NEAR`` widths (the furrow's sharp
+    bottom needs about two edges across it); out to the cut-off (``CUTOFF`` widths),
+    ``REFINE_FAR`` widths.  ``polylines``: the curves as dense 3-D samples (k, 3) in the
+    positions' space; ``widths`` their w.  An edge's distance is its nearest point of three
+    (ends and middle) to the nearest sample: per curve, only the edges in its box grown by
+    the cut-off are compared, in chunks."""
+    p = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    e = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
+    limit = np.full(len(e), np.inf)
+    a, b = p[e[:, 0]], p[e[:, 1]]
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    for poly, w in zip(polylines, widths):  # a handful of curves
+        s = np.asarray(poly, dtype=np.float64).reshape(-1, 3)
+        if len(s) == 0 or not w > 0:
+            continue
+        reach = CUTOFF * w
+        box = np.flatnonzero(((lo < s.max(axis=0) + reach) & (hi > s.min(axis=0) - reach)).all(axis=1))
+        near = np.full(len(box), np.inf)
+        for start in range(0, len(box), 1024):  # chunks bound the (chunk, k) distance array
+            idx = box[start:start + 1024]
+            for q in (a[idx], 0.5 * (a[idx] + b[idx]), b[idx]):
+                d2 = ((q[:, None, :] - s[None, :, :]) ** 2).sum(axis=2).min(axis=1)
+                near[start:start + len(idx)] = np.minimum(near[start:start + len(idx)], np.sqrt(d2))
+        cap = np.where(near < REFINE_REACH * w, REFINE_NEAR * w,
+                       np.where(near < reach, REFINE_FAR * w, np.inf))
+        limit[box] = np.minimum(limit[box], cap)
+    return limit

@@ -206,3 +206,24 @@ def annotation_strokes(scene):
             stroke.points.foreach_get("co", arr)
             out.append(arr.reshape(-1, 3).astype(np.float64))
     return out
+
+
+def refine_need(face):
+    """The wrinkle curves' refinement rule for ``glue.muscles.refine.refine``: a callable
+    ``(rest, edges) -> indices`` of the edges longer than ``core.bando.curves.edge_limits``
+    allows around the face's enabled curves, or None when it has none."""
+    live = live_curves(face)
+    if not live:
+        return None
+    polylines, widths = [], []
+    for ob in live:
+        for pts in face_space_samples(ob, face):
+            polylines.append(pts)
+            widths.append(ob.ewrinkles_curve.width)
+
+    def need(rest, edges):
+        limit = core_curves.edge_limits(rest, edges, polylines, widths)
+        d = rest[edges[:, 1]] - rest[edges[:, 0]]
+        return np.flatnonzero(np.sqrt(np.einsum("ij,ij->i", d, d)) > limit)
+
+    return need

@@ -138,8 +138,10 @@ def bisect_pass(me, split_pairs, split_index):
         bm.free()
 
 
-def refine(face, muscles, factor=4.0, max_vertices=1_000_000, progress=None):
-    """Refine ``face`` until every half cycle of ``muscles`` spans ``factor`` edges.
+def refine(face, muscles, factor=4.0, max_vertices=1_000_000, progress=None, extra=None):
+    """Refine ``face`` until every half cycle of ``muscles`` spans ``factor`` edges, and the
+    edges ``extra(rest, edges)`` names (another method's rule, such as the wrinkle curves')
+    are split too.
 
     Returns a :class:`Result` whose message is set only when the rule is still broken
     (the vertex limit or the pass limit stopped it)."""
@@ -148,7 +150,10 @@ def refine(face, muscles, factor=4.0, max_vertices=1_000_000, progress=None):
     for i in range(MAX_PASSES + 1):
         rest = meshio.read_vectors(me, "position").astype(np.float64)
         edges = meshio.read_edges(me)
-        need = refinement.refine_edges(rest, edges, core_muscles, factor, landmarks.keep_out(face, rest))
+        need = (refinement.refine_edges(rest, edges, core_muscles, factor, landmarks.keep_out(face, rest))
+                if core_muscles else np.zeros(0, np.int64))
+        if extra is not None:
+            need = np.union1d(need, extra(rest, edges))
         if len(need) == 0:
             return Result(i)
         if i == MAX_PASSES:
@@ -161,4 +166,4 @@ def refine(face, muscles, factor=4.0, max_vertices=1_000_000, progress=None):
             return Result(i, f"Stopped: refining further would exceed {max_vertices} vertices")
         bisect_pass(me, edges[split], split)
     return Result(MAX_PASSES, f"Stopped after {MAX_PASSES} passes: {len(need)} edges are still "
-                              f"longer than a {factor:g}th of their half cycle")
+                              "longer than the wrinkles need")
