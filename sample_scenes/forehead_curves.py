@@ -14,9 +14,9 @@ and its bulges rise with the skin's shrinkage across the line, ``M(s)`` (eq. 5),
 brow shape keys (browInnerUp_L/R and browOuterUp_L/R) push the forehead skin up against
 the hairline.  (The scan's brow raise shrinks the skin across the lines by s = 0.13-0.30,
 most between 65 and 95 mm above the head's origin: three lines 10 mm apart fit there; a
-fourth above them barely rises.)  The forehead is first refined around the lines
-(``refine_along``) so the millimetre-wide profile of eq. 2 has vertices to live on:
-11k -> 19k vertices.
+fourth above them barely rises.)  The forehead is then refined around the lines by the
+add-on's Refine Wrinkling Regions, so the millimetre-wide profile of eq. 2 has vertices to
+live on, and the lines are snapped again.
 
 ``build_muscles()``: the same head, camera and keys with the facial muscle set, wrinkles
 only (as ``scanned_head.build``), and no curves: Zhang's wrinkles of the same compression,
@@ -58,9 +58,6 @@ WIDTH = 0.0025  # w of eq. 2: the bulges peak 2w from the furrow
 TAPER = 0.012  # the fade at each end
 POINTS = 9  # Bézier points per line
 
-# refinement around the lines (``refine_along``), in wrinkle widths
-FINE_REACH, FINE_EDGE = 4.0, 0.45  # near the furrow: edges of at most 0.45 w
-COARSE_EDGE = 1.2  # out to the cut-off, 10 w: at most 1.2 w
 
 
 def available():
@@ -126,79 +123,6 @@ def project_front(face, xz):
     return np.array(out)
 
 
-def _distance_to(points, samples):
-    """Distance (N,) from 3-D points to the nearest of dense 3-D ``samples`` (a KD tree)."""
-    from mathutils.kdtree import KDTree
-
-    tree = KDTree(len(samples))
-    for i, co in enumerate(samples):
-        tree.insert(co, i)
-    tree.balance()
-    return np.array([tree.find(co)[2] for co in points])
-
-
-def refine_along(face, lines, width=WIDTH, max_passes=8):
-    """Adaptive refinement around the wrinkle locations (Bando et al. 2002, §6: "if the mesh is
-    not fine enough to represent wrinkles, we apply the adaptive refinement around the specified
-    wrinkle locations"): edges within ``FINE_REACH`` widths of a line (3-D polylines, face
-    space) are bisected until no longer than ``FINE_EDGE`` widths, and up to the profile's
-    cut-off (10 w) until no longer than ``COARSE_EDGE`` widths.
-
-    The bisection pass is the add-on's own (``glue.muscles.refine.bisect_pass``, which its
-    Refine Wrinkling Regions runs around the muscles' regions only): new points on the
-    smooth surface through the old ones, for the mesh and every shape key, UVs interpolated;
-    the pentagons it leaves are triangulated after each pass (``_triangulate_ngons``).
-    Returns the passes made (6 on the ICT head)."""
-    from wrinkle_addon.core.muscles import refinement
-    from wrinkle_addon.glue import meshio
-    from wrinkle_addon.glue.muscles import refine as addon_refine
-
-    me = face.data
-    samples = np.concatenate(lines)  # dense: their spacing is far below a width
-    passes = max_passes
-    for i in range(max_passes):
-        rest = meshio.read_vectors(me, "position").astype(np.float64)
-        edges = meshio.read_edges(me).astype(np.int64)
-        p0, p1 = rest[edges[:, 0]], rest[edges[:, 1]]
-        length = np.linalg.norm(p1 - p0, axis=1)
-        near = np.full(len(edges), np.inf)
-        box = np.flatnonzero(((np.minimum(p0, p1) < samples.max(axis=0) + 10.0 * width)
-                              & (np.maximum(p0, p1) > samples.min(axis=0) - 10.0 * width)).all(axis=1))
-        for p in (p0[box], 0.5 * (p0[box] + p1[box]), p1[box]):
-            near[box] = np.minimum(near[box], _distance_to(p, samples))
-        limit = np.where(near < FINE_REACH * width, FINE_EDGE * width,
-                         np.where(near < 10.0 * width, COARSE_EDGE * width, np.inf))
-        need = np.flatnonzero(length > limit)
-        if len(need) == 0:
-            passes = i
-            break
-        corner, starts, sizes = meshio.read_polygons(me)
-        split, _grid = refinement.split_edges(rest, edges, corner, starts, sizes, need)
-        addon_refine.bisect_pass(me, edges[split], split)
-        _triangulate_ngons(me)
-    return passes
-
-
-def _triangulate_ngons(me):
-    """Split the pentagons a bisection pass leaves (a quad with one split edge) into
-    triangles, after every pass.  No vertex is added: shape keys and UVs stay.
-
-    Such a pentagon has a corner of 180 degrees at the new point.  Kept to the next pass,
-    bmesh cuts that corner off as a zero-area triangle when both halves of the edge are split
-    again, and the pass after puts a new point on top of the old one; kept to the end,
-    Blender fans it into a sliver.  Either way a normal there is ill-defined, and the render
-    shows dark dots or dashes (above the glabella once the brows rise)."""
-    import bmesh
-
-    bm = bmesh.new()
-    bm.from_mesh(me)
-    ngons = [f for f in bm.faces if len(f.verts) > 4]
-    bmesh.ops.triangulate(bm, faces=ngons, quad_method="BEAUTY", ngon_method="BEAUTY")
-    bm.to_mesh(me)
-    bm.free()
-    me.update()
-
-
 def frame_upper_face(scene, face, lm, height=None):
     """The portrait rig, the camera moved up to frame brows to hairline."""
     scene_setup.add_portrait_rig(scene, face, view="front", frame_scale=1.35)
@@ -214,16 +138,6 @@ def frame_upper_face(scene, face, lm, height=None):
     return cam
 
 
-def dense_lines(face, lm, samples=400):
-    """The forehead lines sampled densely along x and projected onto the skin (for the
-    refinement); the curves' own Bézier points are ``line_points``'s."""
-    out = []
-    for xz in line_points(lm):
-        x = np.linspace(xz[0, 0], xz[-1, 0], samples)
-        out.append(project_front(face, np.stack([x, np.interp(x, xz[:, 0], xz[:, 1])], 1)))
-    return out
-
-
 def add_curves(face, rows, name, depth, width, rest_height, taper=None):
     """Wrinkle curves of ``face`` through the (x, z) ``rows`` projected onto its front,
     snapped to its skin (``name`` 1, 2, ...).  Returns the curve objects."""
@@ -237,12 +151,16 @@ def add_curves(face, rows, name, depth, width, rest_height, taper=None):
         if taper is not None:
             s.taper = taper
         made.append(ob)
+    _snap_all(face)
+    return made
+
+
+def _snap_all(face):
     rigging.activate(face)
     lst = face.ewrinkles_face.wrinkle_curves
     for i in range(len(lst.items)):
         lst.active = i
         assert bpy.ops.wrinkle.snap_curve() == {"FINISHED"}
-    return made
 
 
 def add_lines(face, lm):
@@ -273,10 +191,11 @@ def _animate(scene, face):
 def build():
     scene = bpy.context.scene
     face, lm = _head()
-    refine_along(face, dense_lines(face, lm))
     frame_upper_face(scene, face, lm)
     add_lines(face, lm)  # before Enable Wrinkles: setting their parameters rebuilds nothing yet
     rigging.activate(face)
+    assert bpy.ops.wrinkle.refine() == {"FINISHED"}  # around the curves (Bando 2002 §6)
+    _snap_all(face)  # the refined skin moved onto the smooth surface: back onto it
     bpy.ops.wrinkle.enable()
     _animate(scene, face)
     return face, dict(SHOTS)
