@@ -13,9 +13,10 @@ from wrinkle_addon.glue import frame, status
 MID = scenes.HEIGHT / 2
 
 
-def uv_face(uv_scale=1.0, with_uv=True):
-    """The test forehead with a planar UV map (x, z) over the 0-1 square (times ``uv_scale``)."""
-    face = scenes.make_face()
+def uv_face(uv_scale=1.0, with_uv=True, shape_key=True, enable=True):
+    """The test forehead with a planar UV map (x, z) over the 0-1 square (times ``uv_scale``),
+    wrinkles enabled."""
+    face = scenes.make_face(shape_key=shape_key)
     if with_uv:
         me = face.data
         layer = me.uv_layers.new(name="UVMap")
@@ -24,7 +25,8 @@ def uv_face(uv_scale=1.0, with_uv=True):
         me.loops.foreach_get("vertex_index", corner)
         uv = np.stack([(co[:, 0] + scenes.WIDTH / 2) / scenes.WIDTH, co[:, 2] / scenes.HEIGHT], 1)
         layer.uv.foreach_set("vector", (uv[corner] * uv_scale).astype(np.float32).ravel())
-    bpy.ops.wrinkle.enable()
+    if enable:
+        bpy.ops.wrinkle.enable()
     return face
 
 

@@ -202,13 +202,7 @@ def test_fine_wrinkles_survive_saving_and_reopening(carved, tmp_blend):
 def test_directions_from_the_muscles_alone():
     from tests.blender import scenes
 
-    face = scenes.make_face(shape_key=False)
-    layer = face.data.uv_layers.new(name="UVMap")
-    co = np.array([v.co for v in face.data.vertices])
-    corner = np.empty(len(face.data.loops), np.int32)
-    face.data.loops.foreach_get("vertex_index", corner)
-    uv = np.stack([(co[:, 0] + scenes.WIDTH / 2) / scenes.WIDTH, co[:, 2] / scenes.HEIGHT], 1)
-    layer.uv.foreach_set("vector", uv[corner].astype(np.float32).ravel())
+    face = uv_face(shape_key=False, enable=False)
     bpy.context.view_layer.objects.active = face
     with pytest.raises(RuntimeError, match="Nothing deforms"):
         _carve(face)

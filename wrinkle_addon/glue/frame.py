@@ -181,20 +181,20 @@ def _write_shading(ob, active, statics, contributions, ev=None):
     when given (viewport frames whose geometry was written in place: no re-evaluation, which
     a write into the original mesh's attribute triggers, measured 3 ms at 50k vertices), else
     into the original mesh (renders, exports, edits)."""
+    in_place = False
     for source, part in zip(active, contributions):
         for name, values in part.attributes.items():
             att = ev.attributes.get(name) if ev is not None else None
             if (att is not None and att.domain == "POINT" and att.data_type == "FLOAT"
                     and len(att.data) == len(values) and ob.data.attributes.get(name) is not None):
                 att.data.foreach_set("value", np.ascontiguousarray(values, dtype=np.float32))
-                shown = True
+                in_place = True
             else:
                 meshio.write_floats(ob.data, name, values)
-                shown = False
-            if shown:
-                ev.update()  # the viewport redraws from it (as the in-place geometry write)
         for name, values in part.shading.items():
             source.write_shading(ob, statics[source.name], name, values)
+    if in_place:
+        ev.update()  # the viewport redraws from it, as after the in-place geometry write
 
 
 def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=None, changes=None):

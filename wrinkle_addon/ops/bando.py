@@ -19,7 +19,7 @@ from ..glue.bando import curves, shading
 from ..glue.bando import fine as fine_glue
 from ..glue.errors import WrinkleError
 from ..glue.progress import Progress
-from .common import face_poll, guarded
+from .common import face_poll, guarded, select_only
 
 _face = faces.active
 
@@ -31,11 +31,10 @@ def _snapper(face):
 
 def _snap(snapper, local_points):
     """(k, 3) face-local points moved onto the rest surface."""
-    tri, bary, _dist = snapper.nearest(local_points)
+    tri, _bary, _dist, location = snapper.nearest(local_points)
     if (tri < 0).any():
         raise WrinkleError("Some points have no closest point on the face")
-    corners = snapper.rest[snapper.tris[tri]]  # (k, 3 corners, 3)
-    return np.einsum("kc,kcj->kj", bary, corners)
+    return location
 
 
 def _to_local(face, world):
@@ -43,11 +42,8 @@ def _to_local(face, world):
     return np.asarray(world, np.float64) @ m[:3, :3].T + m[:3, 3]
 
 
-def _finish(context, face, ob):
-    for o in context.selected_objects:
-        o.select_set(False)
-    ob.select_set(True)
-    context.view_layer.objects.active = ob
+def _finish(context, ob):
+    select_only(context, ob)
     pipeline.refresh_all(context)
 
 
@@ -75,7 +71,7 @@ class WRINKLE_OT_add_curve(bpy.types.Operator):
         half = 0.5 * self.length * size
         line = centre + np.linspace(-half, half, 5)[:, None] * np.array([1.0, 0.0, 0.0])
         ob = curves.create(context, face, _snap(snapper, line))
-        _finish(context, face, ob)
+        _finish(context, ob)
         return {"FINISHED"}
 
 
@@ -112,7 +108,7 @@ class WRINKLE_OT_curve_from_edges(bpy.types.Operator):
         if was_edit:
             bpy.ops.object.mode_set(mode="OBJECT")
         ob = curves.create(context, face, pts, name="Wrinkle Curve")
-        _finish(context, face, ob)
+        _finish(context, ob)
         return {"FINISHED"}
 
 
@@ -138,10 +134,10 @@ class WRINKLE_OT_curve_from_stroke(bpy.types.Operator):
         step = max(1, len(pts) // 12)  # a Bézier point every few stroke points
         keep = np.unique(np.r_[np.arange(0, len(pts), step), len(pts) - 1])
         pts = pts[keep]
-        if len(pts) < 2 or np.linalg.norm(pts[-1] - pts[0]) < 1e-9 and len(pts) == 2:
+        if len(pts) < 2 or np.linalg.norm(np.diff(pts, axis=0), axis=1).sum() < 1e-9:
             raise WrinkleError("The annotation stroke is a single point: draw a line")
         ob = curves.create(context, face, pts, name="Wrinkle Curve")
-        _finish(context, face, ob)
+        _finish(context, ob)
         return {"FINISHED"}
 
 
@@ -219,7 +215,7 @@ class WRINKLE_OT_snap_curve(bpy.types.Operator):
             if spline.type != "BEZIER":
                 raise WrinkleError(f'"{ob.name}" has a {spline.type.lower()} spline: wrinkle curves '
                                    "snap Bézier splines (Curve > Set Spline Type > Bézier)")
-            data = {k: curves._points(spline, k) for k in ("co", "handle_left", "handle_right")}
+            data = {k: curves.spline_points(spline, k) for k in ("co", "handle_left", "handle_right")}
             local = data["co"] @ m[:3, :3].T + m[:3, 3]
             delta = _snap(snapper, local) - local
             for k, v in data.items():

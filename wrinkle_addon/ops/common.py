@@ -24,6 +24,15 @@ def face_poll(**needs):
     return classmethod(lambda cls, context: face_ok(cls, context, **needs))
 
 
+def select_only(context, ob):
+    """Make ``ob`` the only selected object and the active one (a newly added muscle or
+    curve, ready to edit)."""
+    for o in context.selected_objects:
+        o.select_set(False)
+    ob.select_set(True)
+    context.view_layer.objects.active = ob
+
+
 def guarded(execute):
     """Wrap an operator's ``execute``: a :class:`WrinkleError` becomes an ERROR report with
     its message; anything unexpected prints its traceback to the console and reports one

@@ -28,7 +28,7 @@ from ..glue.errors import WrinkleError
 from ..glue.muscles import landmarks, refine
 from ..glue.muscles import objects as muscle_objects
 from ..glue.progress import Progress
-from .common import face_poll, guarded
+from .common import face_poll, guarded, select_only
 
 MUSCLE_KINDS = [
     ("LINEAR", "Linear", "A linear muscle: attachment point and insertion point"),
@@ -84,10 +84,7 @@ class WRINKLE_OT_add_muscle(bpy.types.Operator):
             self.report({"ERROR"}, "The attachment and insertion must be distinct, finite points")
             return {"CANCELLED"}
         ob = muscle_objects.create(context, face, self.kind, pts, name=self.name or None)
-        for o in context.selected_objects:
-            o.select_set(False)
-        ob.select_set(True)
-        context.view_layer.objects.active = ob
+        select_only(context, ob)
         pipeline.refresh_all(context)
         return {"FINISHED"}
 

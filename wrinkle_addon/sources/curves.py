@@ -19,10 +19,10 @@ TOLERANCE_WIDTHS, TOLERANCE_FACE = 4.0, 0.02
 
 
 class _Static:
-    __slots__ = ("plan", "mapped", "footprint", "uids", "n_items", "problem")
+    __slots__ = ("plan", "footprint", "uids", "n_items", "problem")
 
-    def __init__(self, face, plan=None, mapped_mesh=None, uids=frozenset(), problem=""):
-        self.plan, self.mapped, self.uids, self.problem = plan, mapped_mesh, uids, problem
+    def __init__(self, face, plan=None, uids=frozenset(), problem=""):
+        self.plan, self.uids, self.problem = plan, uids, problem
         self.n_items = len(face.ewrinkles_face.wrinkle_curves.items)
         verts = plan.footprint if plan is not None else np.zeros(0, np.int64)
         self.footprint = combine.Footprint(height_verts=verts)
@@ -73,7 +73,7 @@ class CurveSource(WrinkleSource):
             return _Static(face, uids=uids, problem=str(exc))
         except ValueError as exc:  # the core's checks, written for the artist
             return _Static(face, uids=uids, problem=f"Wrinkle curves: {exc}")
-        return _Static(face, plan, m, uids)
+        return _Static(face, plan, uids)
 
     def contribute(self, face, static, skin, inputs):
         if static.plan is None or len(static.footprint.height_verts) == 0:

@@ -37,7 +37,8 @@ def live_curves(face, in_scene=None):
     return out
 
 
-def _points(spline, name):
+def spline_points(spline, name):
+    """A Bézier spline's ``co``, ``handle_left`` or ``handle_right`` (k, 3) float64."""
     pts = spline.bezier_points
     arr = np.empty(len(pts) * 3, np.float64)
     pts.foreach_get(name, arr)
@@ -50,8 +51,8 @@ def spline_data(curve_ob):
     out = []
     for spline in curve_ob.data.splines:
         if spline.type == "BEZIER":
-            out.append(("BEZIER", _points(spline, "co"), _points(spline, "handle_left"),
-                        _points(spline, "handle_right"), spline.use_cyclic_u))
+            out.append(("BEZIER", spline_points(spline, "co"), spline_points(spline, "handle_left"),
+                        spline_points(spline, "handle_right"), spline.use_cyclic_u))
         else:  # poly and NURBS: their control points as a polyline
             arr = np.empty(len(spline.points) * 4, np.float64)
             spline.points.foreach_get("co", arr)
@@ -98,7 +99,8 @@ class Snapper:
 
     def nearest(self, points):
         """For (k, 3) points: the triangle index (k,), the barycentric coordinates (k, 3)
-        of the closest surface point, and the distance (k,).  -1 where none was found."""
+        of the closest surface point, the distance (k,) and the point itself (k, 3).  -1
+        where none was found."""
         points = np.asarray(points, np.float64)
         tri = np.full(len(points), -1, np.int64)
         loc = np.zeros_like(points)
@@ -112,7 +114,7 @@ class Snapper:
         if ok.any():
             a, b, c = (self.rest[self.tris[tri[ok], k]] for k in range(3))
             bary[ok] = _barycentric(loc[ok], a, b, c)
-        return tri, bary, dist
+        return tri, bary, dist, loc
 
 
 def _barycentric(p, a, b, c):
@@ -137,7 +139,7 @@ def uv_polylines(curve_ob, face, snapper, corner_uv, tolerance):
     for pts in face_space_samples(curve_ob, face):
         if len(pts) < 2 or not np.isfinite(pts).all():
             raise CurveError(f'The wrinkle curve "{curve_ob.name}" needs at least two points')
-        tri, bary, dist = snapper.nearest(pts)
+        tri, bary, dist, _loc = snapper.nearest(pts)
         far = float(np.max(dist))
         if not np.isfinite(far) or far > tolerance:
             raise CurveError(

@@ -81,7 +81,7 @@ def _strokes_uv(context, face, s, snapper):
     for pts in local:
         if len(pts) < 2:
             continue
-        tri, bary, _dist = snapper.nearest(pts)
+        tri, bary, _dist, _loc = snapper.nearest(pts)
         if (tri < 0).any():
             continue
         out.append(np.einsum("kc,kcj->kj", bary, s.uv[tri]))
