@@ -246,7 +246,7 @@ def measure(name, expression, heights, posed, fh, landmarks, zones, step, dump):
     elif expression == "smile":
         x, z = below_eyes(lm)
         grids["below_eyes"] = grid = rm.front_grid(posed, tris, heights, x, z, step)
-        band = nasolabial_bands(grid, lm)
+        grid.band = band = nasolabial_bands(grid, lm)  # dumped with the grid
         hit, low, other = rm.deepest_in_band(grid, band)
         in_band = float(np.nanmin(np.where(band, grid.h, np.nan))) if (band & grid.valid).any() else 0.0
         row["nasolabial_deepest"] = hit
@@ -255,7 +255,8 @@ def measure(name, expression, heights, posed, fh, landmarks, zones, step, dump):
     row["eyelid_lip_max_mm"] = rm.max_abs(heights, zones.eyelid | zones.lip)
     if dump:
         Path(dump).mkdir(parents=True, exist_ok=True)
-        arrays = {f"{k}_{a}": getattr(g, a) for k, g in grids.items() for a in ("h", "y", "xs", "zs")}
+        arrays = {f"{k}_{a}": getattr(g, a) for k, g in grids.items()
+                  for a in ("h", "y", "xs", "zs", "band") if hasattr(g, a)}
         np.savez_compressed(Path(dump) / f"{name}_{expression}.npz", **arrays)
     return row
 

@@ -164,6 +164,15 @@ class WrinkleFineSettings(bpy.types.PropertyGroup):
         default=0.5, min=0.0, max=1.0, subtype="FACTOR",
         update=_sync_fine,
     )
+    continue_from: PointerProperty(
+        name="Continue From",
+        description="Another body part, carved before, that shares a band of faces with this one "
+        "(the same faces at the same place): its directions and furrows on the shared faces are "
+        "copied before this part is carved, so the furrows run on across the border without a "
+        "seam (Bando 2002 §5.4)",
+        type=bpy.types.Object,
+        poll=lambda self, ob: ob.type == "MESH" and ob != self.id_data,
+    )
     image_1: PointerProperty(
         name="Height Image 1", description="The carved furrows of the first direction field",
         type=bpy.types.Image,

@@ -60,6 +60,7 @@ def draw_face_fine(layout, context, face):
     col.prop(fs, "angle")
     col.prop(fs, "resolution")
     col.prop(fs, "seed")
+    col.prop(fs, "continue_from")
     row = layout.row(align=True)
     row.operator("wrinkle.carve_fine", icon="MOD_NOISE")
     row.operator("wrinkle.remove_fine", icon="TRASH", text="")

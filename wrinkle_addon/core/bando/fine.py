@@ -50,16 +50,21 @@ def uv_directions(positions, uv, tris, vectors):
     return out * np.where(uv_len > 1e-12, skin_len / np.where(uv_len > 1e-12, uv_len, 1.0), 0.0)[:, None]
 
 
-def carve_pair(uv, tris, field1, angle, resolution, seed=0, progress=None):
+def carve_pair(uv, tris, field1, angle, resolution, seed=0, progress=None, held2=None, initial=(None, None)):
     """The two height images (R, R) float32 of §5 (1 = no furrow): ``field1`` (U, 2) and
     ``field1`` rotated by ``angle`` (radians), carved with seeds ``seed`` and ``seed + 1``.
-    ``progress(i)`` is called before each.  Returns ``(results, field2)``."""
+    ``progress(i)`` is called before each.  For a part carved on from another (§5.4,
+    ``core.bando.parts``): ``held2`` = (vertices (K,), vectors (K, 2)), the second field
+    copied there in place of the rotated one, and ``initial`` the two images' initial
+    states.  Returns ``(results, field2)``."""
     field2 = field.rotate(field1, angle)
+    if held2 is not None:
+        field2[held2[0]] = held2[1]
     out = []
-    for i, (f, s) in enumerate(((field1, seed), (field2, seed + 1))):
+    for i, (f, s, start) in enumerate(((field1, seed, initial[0]), (field2, seed + 1, initial[1]))):
         if progress is not None:
             progress(i)
-        out.append(carve.carve(uv, tris, f, resolution, seed=s))
+        out.append(carve.carve(uv, tris, f, resolution, seed=s, initial=start))
     return out, field2
 
 

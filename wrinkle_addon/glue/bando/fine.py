@@ -13,7 +13,7 @@ import bpy
 import numpy as np
 
 from ...core import raster
-from ...core.bando import field, fine, mapped
+from ...core.bando import field, fine, mapped, parts
 from ...core.muscles import system
 from .. import frame as frame_stage
 from .. import images, meshio, nodes, surface
@@ -97,9 +97,10 @@ def _uv_per_metre(m, rest):
     return float(np.median(e_uv[ok] / e_3d[ok])) if ok.any() else 1.0
 
 
-def direction_field(context, face, s, m, step):
+def direction_field(context, face, s, m, step, held=None):
     """Field 1 (U, 2) on the mapped mesh ``m`` of the surface ``s``, from the settings'
-    source; ``step(message)`` reports progress.  Raises FineError."""
+    source; ``step(message)`` reports progress.  ``held`` = (vertices (K,), vectors (K, 2)):
+    directions copied from another part (§5.4), kept as they are.  Raises FineError."""
     fs = settings(face)
     pos = m.positions(s.rest)
     if fs.field_source == "FACE":
@@ -108,9 +109,12 @@ def direction_field(context, face, s, m, step):
             raise FineError(f'Nothing deforms "{face.name}": add shape keys, muscles or a pose (bones), '
                             "or give the directions yourself (Directions: From Guides)")
         step(f"Directions from {len(poses)} pose(s)")
-        return field.deformation_field(pos, [m.positions(p) for p in poses], m.uv, m.tris,
-                                       fill_threshold=0.05, floor=fs.base_magnitude)
-    fixed, vectors = [], []
+        out = field.deformation_field(pos, [m.positions(p) for p in poses], m.uv, m.tris,
+                                      fill_threshold=0.05, floor=fs.base_magnitude)
+        if held is not None:
+            out[held[0]] = held[1]
+        return out
+    fixed, vectors = ([held[0]], [held[1]]) if held is not None else ([], [])
     guide = face.data.attributes.get(GUIDE_ATTR)
     if guide is not None and guide.domain == "POINT" and guide.data_type == "FLOAT_VECTOR":
         g = meshio.read_vectors(face.data, GUIDE_ATTR).astype(np.float64)[m.vert_of]
@@ -131,7 +135,7 @@ def direction_field(context, face, s, m, step):
         raise FineError(f'No guides on "{face.name}": draw annotation strokes on the face, select guide '
                         "curves, or Set Direction on selected vertices (or use Directions: From the Face)")
     fixed, vectors = np.concatenate(fixed), np.concatenate(vectors)
-    fixed, first = np.unique(fixed, return_index=True)
+    fixed, first = np.unique(fixed, return_index=True)  # the copied directions come first
     step(f"Interpolating the directions from {len(fixed)} guide vertices")
     return field.direction_field(pos, m.uv, m.tris, fixed, vectors[first], tol=1e-6)
 
@@ -182,6 +186,60 @@ def set_guides(face, verts, vector):
     att.data.foreach_set("vector", g.ravel())
 
 
+# --------------------------------------------------------------------------- several parts
+def _per_vertex(m, tris, corner_values):
+    """Values at the corners of the mapped triangles ``tris`` (S,) as (vertices (K,),
+    values (K, 2)): averaged over the corners of each mapped vertex."""
+    v = m.tris[tris].ravel()
+    flat = corner_values.reshape(-1, 2)
+    verts, inverse = np.unique(v, return_inverse=True)
+    count = np.bincount(inverse, minlength=len(verts))
+    out = np.stack([np.bincount(inverse, weights=flat[:, k], minlength=len(verts)) for k in range(2)], 1)
+    return verts, out / count[:, None]
+
+
+def continued(face, s, m, resolution):
+    """What a part carved on from another (``continue_from``, Bando 2002 §5.4) starts with:
+    ``(held1, held2, initial)`` - both fields' directions on the shared vertices of the
+    mapped mesh ``m`` and both images' initial states - or None without one.  The two
+    parts share the faces whose corners lie at the same places in the scene.  Raises
+    FineError."""
+    other = settings(face).continue_from
+    if other is None:
+        return None
+    os_ = settings(other)
+    if other.type != "MESH" or os_.image_1 is None or os_.image_2 is None:
+        raise FineError(f'"{other.name}" has no fine wrinkles to continue from: carve it first')
+    so = surface.Surface(other, os_.uv_map or None)
+    mo = mapped.mapped_mesh(so.tris, so.uv, len(so.rest))
+    fields = read_fields(other, so, mo)
+    if fields is None:
+        raise FineError(f'"{other.name}" has lost its direction fields: carve it again')
+
+    def world(ob, rest):
+        mw = np.array(ob.matrix_world, np.float64)
+        return rest @ mw[:3, :3].T + mw[:3, 3]
+
+    pa, pb = world(other, so.rest), world(face, s.rest)
+    size = float(max(np.ptp(pa, axis=0).max(), np.ptp(pb, axis=0).max(), 1e-9))
+    ta, tb, corner = parts.shared_portion(pa, so.tris, pb, s.tris, 1e-5 * size)
+    if len(ta) == 0:
+        raise FineError(f'"{face.name}" and "{other.name}" share no faces: the two parts must both have '
+                        "the faces of a band along their border, at the same place in the scene")
+    rows = np.arange(len(ta))[:, None]
+    src_uv, dst_uv = so.uv[ta][rows, corner], s.uv[tb]
+    held = [_per_vertex(m, tb, parts.copy_field(src_uv, dst_uv, f[mo.tris[ta]][rows, corner]))
+            for f in fields]
+    states = []
+    for image in (os_.image_1, os_.image_2):
+        try:
+            height = images.read(image)[:, :, 0]
+        except images.ImageError as exc:
+            raise FineError(f'The fine wrinkles of "{other.name}" cannot be read: {exc}') from None
+        states.append(parts.copy_heights(height, src_uv, dst_uv, resolution))
+    return held[0], held[1], tuple(states)
+
+
 # --------------------------------------------------------------------------- carving
 def check_resolution(resolution):
     if not 1 <= int(resolution) <= 8192:
@@ -209,14 +267,16 @@ def carve(context, face, progress):
                         "wrinkles need one place in the images per point of the skin. Unwrap without "
                         "overlaps, or pick another UV map")
     m = mapped.mapped_mesh(s.tris, s.uv, len(s.rest))
-    field1 = direction_field(context, face, s, m, step)
+    R = int(fs.resolution)
+    before = continued(face, s, m, R)
+    held1, held2, initial = before if before is not None else (None, None, (None, None))
+    field1 = direction_field(context, face, s, m, step, held1)
     keep = landmarks.keep_out(face, s.rest)  # with the landmarks placed: no furrow on lids and lips
     if keep is not None:
         field1 = field1 * keep[m.vert_of][:, None]
-    R = int(fs.resolution)
     results, field2 = fine.carve_pair(
         m.uv, m.tris, field1, fs.angle, R, fs.seed,
-        progress=lambda i: step(f"Carving the furrows of field {i + 1}"))
+        progress=lambda i: step(f"Carving the furrows of field {i + 1}"), held2=held2, initial=initial)
     step("Storing the images")
     imgs = []
     for k, res in enumerate(results):
