@@ -57,13 +57,58 @@ The mapped mesh (``--mesh``):
 ``curves_and_fine_frame_ms``
     Both together on top of the stage: the frames with curves and fine wrinkles against
     those with neither (the figure the 0.5 ms goal is about).
+``frame_breakdown_ms``
+    Where that time goes: each part timed alone (``time.perf_counter``, ms) on the same face
+    with the add-on's frame handler removed, right after ``frame_set`` evaluated a new frame
+    (``--curve-warm`` untimed frames first, then the ``--curve-frames`` frames, in
+    ``--curve-repeats`` rounds; each figure the median over all its frames).  Every part
+    but ``handler_none`` runs with the curves and the fine wrinkles on:
+
+    ``curve_heights``
+        The curve source's ``contribute``: ``core.bando.large.heights``, the shrinkage across
+        each curve at its entries, ``M(s)`` and the sum at the footprint.
+    ``fine_shrinkage``
+        The fine source's ``contribute``: ``core.bando.fine.shrinkages``, both fields'
+        shrinkage at every vertex.
+    ``curve_combine``
+        ``core.combine.combine`` with the curves' heights: the skin normals at the raised
+        vertices and the offsets along them (with no curve the stage's plan is empty).
+    ``attribute_write``
+        The stage writing the two shrinkage attributes into the evaluated mesh
+        (``glue.frame._write_shading``: look-ups, checks, one ``foreach_set`` each,
+        ``Mesh.update()``), on a frame nothing was written to yet.
+    ``handler_all`` / ``handler_none``
+        The whole ``update_scene(in_place=True)`` call as the viewport handler makes it (on
+        the frame it evaluated), with everything on / with neither (the *none*
+        configuration, its own rounds of frames).
+    ``stage_overhead``
+        handler_all - handler_none - the four parts above: whatever else the add-on adds per
+        frame for these sources (Python bookkeeping).  Derived from six medians, so it
+        carries their noise (and may come out slightly negative).
+    ``floor``
+        The bare minimum of this feature's frame, in minimal NumPy in this benchmark
+        (``Floor``: preallocated float32 buffers, the add-on's static plans, no checks):
+        ``edges``, one gather of both ends of each edge the two fields and the curves need
+        (``edges_measured``, each once; none for the rows with no direction, s = 0) and its
+        length; ``shrinkage``, both fields' shrinkage from those lengths (eq. 4: a gather at
+        each row's four slots, a division, two reciprocals); ``heights``, the curves'
+        shrinkage from the same lengths, ``M(s)`` (eq. 5) and the sum at the footprint;
+        ``write``, two ``foreach_set`` of 50k float32 into the evaluated mesh's attributes
+        (on frames of their own, nothing written to them yet); ``total``, the sum of the
+        four.  The skin normals under the curves' heights (``curve_combine``) are left out:
+        the floor is the shrinkage feature alone.  The floor's values are checked against the
+        add-on's.
+
+    These run after ``frame_set`` returned; inside the frame handler, right after Blender's
+    own evaluation, the same NumPy work is measured to take longer (colder caches).
 
 Output: progress on stderr (the shared benchmark helpers log theirs on stdout), one JSON
 object on the last line of stdout::
 
     {"carve_s": {"512": ..., "1024": ..., "2048": ...}, "coverage": {...}, "furrows": {...},
      "mesh": "face", "repeats": 3, "curves_frame_ms": ..., "curves": {...},
-     "fine_attributes_frame_ms": ..., "curves_and_fine_frame_ms": ..., "bpy": "4.5.4"}
+     "fine_attributes_frame_ms": ..., "curves_and_fine_frame_ms": ...,
+     "frame_breakdown_ms": {"curve_heights": ..., ..., "floor": {"edges": ..., ...}}, "bpy": "4.5.4"}
 
 With ``--carve-only`` the script imports no bpy and the keys from ``curves_frame_ms`` on
 are left out.
@@ -199,6 +244,187 @@ def add_fine_attributes(bench):
     return fs.image_1
 
 
+class Floor:
+    """The floor of the feature's frame (see the module docstring): the bare minimum NumPy
+    work, on the add-on's own static plans (the fine wrinkles' and the curves'
+    ``field.EdgeSlots``, the curves' ``large.LargePlan``), in preallocated float32 buffers.
+    The edges both need are gathered once; a row with s = 0 (no direction) measures no
+    edge of its own."""
+
+    def __init__(self, fine_slots, large_plan, n):
+        self.n = n
+        rows = [self._rows(fine_slots, n), self._rows(large_plan.shrink, n)]
+        keys = np.unique(np.concatenate([r[0].ravel() for r in rows]))
+        ends = np.stack([keys // n, keys % n]).astype(np.intp)
+        self.flat = ends[:, None, :] * 3 + np.arange(3)[:, None]  # (2, 3, E) skin indices
+        self.gathered = np.empty(self.flat.shape, np.float32)
+        self.length = np.empty(len(keys), np.float32)
+        (self.fine_slot, self.fine_coef, self.fine_share, self.fine_none), \
+            (self.curve_slot, self.curve_coef, self.curve_share, self.curve_none) = (
+                (np.searchsorted(keys, k), c, sh, no) for k, c, sh, no in rows)
+        self.fine_q = np.empty(self.fine_slot.shape, np.float32)
+        self.fine_s = np.zeros((2, n), np.float32)
+        self.curve_q = np.empty(self.curve_slot.shape, np.float32)
+        self.curve_s = np.empty(self.curve_slot.shape[1], np.float32)
+        self.plan = large_plan
+        self.edges_measured = len(keys)
+
+    @staticmethod
+    def _rows(slots, n):
+        """Per row: its four edges' keys (lo n + hi), coefficients, share, rows with s = 0."""
+        a, b = (np.asarray(e, np.int64)[slots.slot_edge] for e in slots.ends)
+        keys = np.minimum(a, b) * n + np.maximum(a, b)
+        none = np.asarray(slots.none, bool)
+        if not none.all():
+            keys[:, none] = keys[0, np.argmin(none)]
+        return (keys, np.ascontiguousarray(slots.slot_coef, np.float32),
+                np.asarray(slots.share, np.float32), np.flatnonzero(none))
+
+    def edges(self, skin):
+        """Both ends of every edge, gathered once, and its length."""
+        g = self.gathered
+        np.take(skin.reshape(-1), self.flat, out=g, mode="clip")
+        d = g[1]
+        d -= g[0]
+        d *= d
+        np.add(d[0], d[1], out=self.length)
+        self.length += d[2]
+        np.sqrt(self.length, out=self.length)
+
+    def _shrinkage(self, slot, coef, share, none, q, s):
+        np.take(self.length, slot, out=q, mode="clip")
+        np.divide(coef, q, out=q)
+        side = q[0::2]
+        side += q[1::2]
+        np.reciprocal(side, out=side)
+        side[0] += side[1]
+        np.subtract(share, side[0], out=s)
+        s[none] = 0.0
+
+    def shrinkage(self):
+        """Both fine fields' shrinkage from the edge lengths."""
+        self._shrinkage(self.fine_slot, self.fine_coef, self.fine_share, self.fine_none, self.fine_q,
+                        self.fine_s.reshape(-1))
+
+    def heights(self):
+        """The curves' shrinkage from the edge lengths, M(s) and the sum at the footprint."""
+        s, p = self.curve_s, self.plan
+        self._shrinkage(self.curve_slot, self.curve_coef, self.curve_share, self.curve_none, self.curve_q, s)
+        np.minimum(s, np.float32(1.0), out=s)
+        m = np.where(s >= 0, p.growth * s + p.rest_height, p.rest_height * np.exp(p.decay * np.minimum(s, 0)))
+        m *= p.static
+        return np.bincount(p.entry_slot, m, minlength=len(p.footprint))
+
+    def write(self, ev, names):
+        """The two attributes into the evaluated mesh, one ``foreach_set`` each."""
+        for name, values in zip(names, self.fine_s):
+            ev.attributes[name].data.foreach_set("value", values)
+
+
+def frame_breakdown(bench, face, configure, repeats):
+    """The ``frame_breakdown_ms`` figures (see the module docstring), with the add-on's frame
+    handler removed: each part timed alone on freshly evaluated frames of the 50k face.
+    ``configure(config)`` switches the scene to ``"none"`` or ``"all"``."""
+    import bpy
+    import frame_update as fu
+
+    from wrinkle_addon.core import combine
+    from wrinkle_addon.core.bando import fine as core_fine
+    from wrinkle_addon.core.bando import large
+    from wrinkle_addon.glue import registry
+    from wrinkle_addon.glue.bando import shading
+
+    pipeline, scene, n = fu.pipeline, bench.scene, bench.n
+    names = (shading.S1_ATTR, shading.S2_ATTR)
+    skin = np.empty((n, 3), np.float32)
+    configure("all")
+    active = [s for s in registry.sources() if s.active(face)]
+    curve_src, fine_src = (next(s for s in active if s.name == k) for k in ("curves", "fine_wrinkles"))
+    got = {}
+
+    def configure_all():
+        """Everything on; the stage's state and static data (rebuilt by each switch)."""
+        configure("all")
+        got["state"] = state = pipeline._cache[face.session_uid]
+        got["statics"] = {s.name: state.statics[s.name][1] for s in active}
+        return got["statics"]
+
+    statics = configure_all()
+    floor = Floor(statics[fine_src.name].plan, statics[curve_src.name].plan, n)
+    combine_out = np.zeros((n, 3), np.float32)
+    times = {k: [] for k in ("curve_heights", "fine_shrinkage", "curve_combine", "attribute_write",
+                             "handler_all", "handler_none", "floor_edges", "floor_shrinkage",
+                             "floor_heights", "floor_write")}
+
+    def timed(key, fn, *args):
+        t = time.perf_counter()
+        out = fn(*args)
+        times[key].append(time.perf_counter() - t)
+        return out
+
+    def frames(each):
+        """``each(ev, record)`` after every frame_set (warm-up frames unrecorded)."""
+        for f in bench.warm + bench.frames:
+            scene.frame_set(f)
+            each(face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data, f in bench.frames)
+
+    def parts(ev, record):
+        fu.meshio.read_vector_prefix(ev, fu.stage.SKIN_ATTR, n, skin)
+        call = timed if record else (lambda _k, fn, *a: fn(*a))
+        statics = got["statics"]
+        heights = call("curve_heights", curve_src.contribute, face, statics["curves"], skin, ())
+        shaded = call("fine_shrinkage", fine_src.contribute, face, statics[fine_src.name], skin, ())
+        parts_in = [heights if s is curve_src else combine.Contribution() for s in active if s.geometric]
+        call("curve_combine", combine.combine, got["state"].plan, skin, parts_in, combine_out)
+        call("floor_edges", floor.edges, skin)
+        call("floor_shrinkage", floor.shrinkage)
+        call("floor_heights", floor.heights)
+        call("attribute_write", pipeline._write_shading, face, [fine_src], statics, [shaded], ev)
+
+    def floor_write(ev, record):
+        (timed if record else (lambda _k, fn, *a: fn(*a)))("floor_write", floor.write, ev, names)
+
+    def handler(key):
+        def each(ev, record):
+            dg = bpy.context.evaluated_depsgraph_get()
+            t = time.perf_counter()
+            pipeline.update_scene(scene, dg, in_place=True, changes=pipeline._changes(dg))
+            if record:
+                times[key].append(time.perf_counter() - t)
+        return each
+
+    bench.handler(False)
+    try:
+        for rep in range(repeats):
+            order = ("all", "none") if rep % 2 == 0 else ("none", "all")
+            for config in order:
+                if config == "all":
+                    configure_all()
+                    frames(parts)
+                    frames(floor_write)
+                else:
+                    configure(config)
+                frames(handler(f"handler_{config}"))
+    finally:
+        bench.handler(True)
+    statics = configure_all()
+    out = {k: fu.ms(v) for k, v in times.items()}
+    check = large.heights(statics["curves"].plan, skin)
+    if not np.allclose(floor.heights(), check, atol=1e-7) or not np.allclose(
+            floor.fine_s, core_fine.shrinkages(statics[fine_src.name].plan, skin), atol=1e-6):
+        raise RuntimeError("the floor's arithmetic differs from the add-on's")
+    parts_sum = sum(out[k] for k in ("curve_heights", "fine_shrinkage", "curve_combine", "attribute_write"))
+    result = {k: out[k] for k in ("curve_heights", "fine_shrinkage", "curve_combine", "attribute_write")}
+    result["handler_all"], result["handler_none"] = out["handler_all"], out["handler_none"]
+    result["stage_overhead"] = out["handler_all"] - out["handler_none"] - parts_sum
+    floor_parts = {k[6:]: out[k] for k in ("floor_edges", "floor_shrinkage", "floor_heights", "floor_write")}
+    result["floor"] = dict(floor_parts, total=sum(floor_parts.values()), edges_measured=floor.edges_measured)
+    log("breakdown: " + ", ".join(f"{k} {v:.3f}" for k, v in result.items() if k != "floor") + " ms; floor: "
+        + ", ".join(f"{k} {v:.3f}" for k, v in result["floor"].items() if k != "edges_measured")
+        + f" ms ({floor.edges_measured} edges)")
+    return result
+
+
 def curves_frame_ms(n_curves, target, frames, warm, repeats):
     """The ``curves_frame_ms`` figure and its detail (see the module docstring)."""
     import bpy
@@ -286,6 +512,12 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
             f"curves {fu.ms(times['curves'][-1]):.2f} ms, with fine {fu.ms(times['all'][-1]):.2f} ms")
     set_curves(True)
     set_fine(True)
+
+    def configure(config):
+        set_fine(config == "all")
+        set_curves(config != "none")
+
+    breakdown = frame_breakdown(bench, face, configure, repeats)
     med = {c: [fu.ms(block) for block in blocks] for c, blocks in times.items()}
     cost = [a - b for a, b in zip(med["curves"], med["none"])]
     fine_cost = [a - b for a, b in zip(med["all"], med["curves"])]
@@ -309,7 +541,7 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
     out = {"curves_frame_ms": fu.clean(result), "curves": fu.clean(detail),
            "fine_attributes_frame_ms": fu.clean(fu.median_or_none(fine_cost)),
            "curves_and_fine_frame_ms": fu.clean(fu.median_or_none(both_cost)),
-           "bpy": bpy.app.version_string}
+           "frame_breakdown_ms": fu.clean(breakdown), "bpy": bpy.app.version_string}
     try:
         bpy.ops.wm.read_factory_settings(use_empty=True)  # bpy 4.5 hangs at exit otherwise
     except Exception as exc:  # noqa: BLE001 - the figures are measured; report and go on

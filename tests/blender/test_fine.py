@@ -121,7 +121,9 @@ def _eval_modulation(ng, s, r):
         if node.type == "ATTRIBUTE":
             return s
         if node.type == "GROUP_INPUT":
-            return {"Rest Height": r, "Height 1": 0.0, "Height 2": 1.0}[src.name]
+            return {"Rest Height": r, "Height 1": 0.0, "Height 2": 1.0, "Use Baked": 0.0}[src.name]
+        if node.type == "SEPARATE_COLOR":  # the farm bake's shrinkage, not used (Use Baked = 0)
+            return 0.0
         args = [value(i) for i in node.inputs[: {"MULTIPLY_ADD": 3, "EXPONENT": 1}.get(node.operation, 2)]]
         return _OPS[node.operation](*args)
 

@@ -3,6 +3,7 @@ vertices equals ``field.shrinkage`` at each vertex's copy, seams included; and s
 directions turn into texture-space vectors of the same skin length."""
 
 import numpy as np
+import pytest
 
 from wrinkle_addon.core.bando import field, fine, mapped
 
@@ -34,6 +35,27 @@ def test_both_fields_match_the_reference_at_every_vertex():
         ref = field.shrinkage(field.shrinkage_plan(m.uv, m.tris, f, m.positions(rest)), skin[m.vert_of])
         np.testing.assert_allclose(got[k], ref[rep], atol=2e-5)
     assert got[0].mean() > 0.1  # the squash along y is across field 1's furrows (along u)
+
+
+def test_rows_without_a_direction_measure_no_edge_and_out_is_filled():
+    rest, _tris, m = _sheet()
+    f1 = np.stack([np.ones(len(m.uv)), 0.3 * np.sin(20 * m.uv[:, 1])], 1)
+    f2 = np.where((m.uv[:, 0] < 0.5)[:, None], field.rotate(f1, 1.1), 0.0)  # no field 2 on the right
+    plan = fine.plan(m, rest, f1, f2)
+    assert plan.none.any() and np.all(plan.ends[0] != plan.ends[1])  # no zero-length edge measured
+    skin = (rest * [1.0, 0.8, 1.0]).astype(np.float32)
+    out = np.full((2, m.n_verts), np.nan, np.float32)
+    got = fine.shrinkages(plan, skin, out)
+    assert got is out or np.shares_memory(got, out)
+    np.testing.assert_array_equal(out, fine.shrinkages(plan, skin))
+    rep = np.zeros(m.n_verts, np.int64)
+    rep[m.vert_of] = np.arange(len(m.vert_of))
+    for k, f in enumerate((f1, f2)):
+        ref = field.shrinkage(field.shrinkage_plan(m.uv, m.tris, f, m.positions(rest)), skin[m.vert_of])
+        np.testing.assert_allclose(out[k], ref[rep], atol=2e-5)
+    assert np.all(out[1][m.vert_of[m.uv[:, 0] > 0.5]] == 0.0)
+    with pytest.raises(ValueError):
+        fine.shrinkages(plan, skin[:-1])
 
 
 def test_uv_directions_keep_the_skin_length_and_direction():

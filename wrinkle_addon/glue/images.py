@@ -254,6 +254,12 @@ def save(image, filepath, file_format="PNG", color_depth="8"):
     notes); the extension is added if missing and missing folders are made.  The image
     itself is not changed.
     """
+    return write(read(image), filepath, file_format, color_depth, name=image.name)
+
+
+def write(pixels, filepath, file_format="PNG", color_depth="8", name="image"):
+    """Write the (H, W, 4) float ``pixels`` (row 0 at the bottom) as :func:`save` writes an
+    image; ``name`` is for the messages."""
     ext = FORMATS.get((file_format, str(color_depth)))
     if ext is None:
         raise ImageError(f"Cannot write {file_format} at {color_depth} bits; use PNG 8 or 16, "
@@ -265,7 +271,6 @@ def save(image, filepath, file_format="PNG", color_depth="8"):
                          "saved yet: save it first or give an absolute path")
     path = bpy.path.ensure_ext(bpy.path.abspath(filepath), ext)
     folder = os.path.dirname(path)
-    pixels = read(image)
     h, w = pixels.shape[:2]
     scene = temp = None
     try:
@@ -273,7 +278,7 @@ def save(image, filepath, file_format="PNG", color_depth="8"):
             os.makedirs(folder, exist_ok=True)
         temp = bpy.data.images.new(".wrinkle save", w, h, alpha=True, float_buffer=True)
         temp.colorspace_settings.name = NON_COLOR
-        temp.pixels.foreach_set(pixels.ravel())
+        temp.pixels.foreach_set(np.ascontiguousarray(pixels, np.float32).ravel())
         scene = bpy.data.scenes.new(".wrinkle save")
         scene.view_settings.view_transform = "Standard"
         settings = scene.render.image_settings
@@ -284,14 +289,14 @@ def save(image, filepath, file_format="PNG", color_depth="8"):
             settings.exr_codec = "ZIP"
         temp.save_render(path, scene=scene)
     except (OSError, RuntimeError) as exc:
-        raise ImageError(f"Could not write '{image.name}' to {path!r}: {exc}") from exc
+        raise ImageError(f"Could not write '{name}' to {path!r}: {exc}") from exc
     finally:
         if temp is not None:
             bpy.data.images.remove(temp)
         if scene is not None:
             bpy.data.scenes.remove(scene)
     if not os.path.isfile(path):
-        raise ImageError(f"Could not write '{image.name}' to {path!r}")
+        raise ImageError(f"Could not write '{name}' to {path!r}")
     return path
 
 

@@ -4,6 +4,8 @@ carved height images live in the material (``Fine Wrinkles`` node group); every 
 source measures the skin's shrinkage across each of the two direction fields (eq. 4) and
 writes it as two point attributes, which the group turns into ``M(s)`` (eq. 5)."""
 
+import numpy as np
+
 from ..core import combine
 from ..core.bando import fine, mapped
 from ..glue import meshio, surface
@@ -15,10 +17,12 @@ from ..ui import bando as bando_ui
 
 
 class _Static:
-    __slots__ = ("plan", "problem")
+    __slots__ = ("plan", "problem", "out")
 
     def __init__(self, plan=None, problem=""):
         self.plan, self.problem = plan, problem
+        # the frame's two shrinkages, written in place: the stage writes them right away
+        self.out = None if plan is None else np.empty((2, plan.n_verts), np.float32)
 
 
 class FineSource(WrinkleSource):
@@ -52,11 +56,24 @@ class FineSource(WrinkleSource):
     def contribute(self, face, static, skin, inputs):
         if static.plan is None:
             return combine.Contribution()
-        s1, s2 = fine.shrinkages(static.plan, skin)
+        s1, s2 = fine.shrinkages(static.plan, skin, static.out)
         return combine.Contribution(attributes={shading.S1_ATTR: s1, shading.S2_ATTR: s2})
 
     def problems(self, face, static):
         return static.problem
+
+    def bake(self, face, scene, frame_start, frame_end, progress):
+        n = fine_glue.bake_shrinkage(face, scene, frame_start, frame_end, progress)
+        return f"the fine wrinkles' shrinkage of {n} frame(s) as an image sequence"
+
+    def bakes(self, face):
+        return self.active(face) and fine_glue.can_bake(face)
+
+    def has_bake(self, face):
+        return fine_glue.has_baked_shrinkage(face)
+
+    def free_bake(self, face):
+        fine_glue.free_baked_shrinkage(face)
 
     def draw(self, layout, context, face):
         bando_ui.draw_face_fine(layout, context, face)

@@ -747,26 +747,32 @@ def modulation(s, r):
 @dataclass(frozen=True)
 class EdgeSlots:
     """Rows of one or more :class:`ShrinkagePlan` gathered for a per-frame evaluation on the
-    face's own vertices (see :func:`edge_slots`): the 3-D edges the rows use, listed once
-    (``ends``: two (E,) contiguous intp arrays of mesh vertices), and per row its four
-    edges (``slot_edge`` (4, R)), coefficients (``slot_coef`` (4, R) float32), ``share``
+    skin (``n_verts``, 3) of the face's own vertices (see :func:`edge_slots`): the 3-D edges
+    the rows use, listed once (``ends``: two (E,) intp arrays of mesh vertices; ``flat``
+    (2, 3, E) intp: the flat indices of their x, y, z in the skin), and per row its four
+    edges (``slot_edge`` (4, R) intp), coefficients (``slot_coef`` (4, R) float32), ``share``
     (R,) float32 and ``none`` (R,) bool (s = 0).  ``offsets`` (P + 1,): part p owns rows
-    ``offsets[p]:offsets[p + 1]``."""
+    ``offsets[p]:offsets[p + 1]``.  ``work``: the per-frame scratch arrays of
+    :func:`edge_slot_shrinkage` (one evaluation at a time)."""
 
+    n_verts: int
     ends: tuple
+    flat: np.ndarray
     slot_edge: np.ndarray
     slot_coef: np.ndarray
     share: np.ndarray
     none: np.ndarray
     offsets: np.ndarray
+    work: tuple
 
 
 def edge_slots(parts, n_verts):
     """The :class:`EdgeSlots` of ``parts``, each ``(plan, rows, vert_of)``: a
     :class:`ShrinkagePlan`, the plan's vertices to evaluate (R_p,) (-1: none, s = 0) and the
     mesh vertex (of ``n_verts``) of each of the plan's vertices.  Each edge is measured once
-    a frame however many rows and parts use it: fancy row gathers of positions are the
-    cost, and two rows of the same vertex (two fields, two curves) share its edges."""
+    a frame however many rows and parts use it: gathers of positions are the cost, and two
+    rows of the same vertex (two fields, two curves) share its edges.  A row with s = 0
+    measures nothing of its own (its slots point at another row's edge)."""
     keys, coefs, shares, nones, counts = [], [], [], [], []
     for plan, rows, vert_of in parts:
         rows = np.asarray(rows, np.int64)
@@ -785,24 +791,50 @@ def edge_slots(parts, n_verts):
     if not keys:
         raise ValueError("edge_slots needs at least one shrinkage plan")
     keys = np.concatenate(keys, axis=1)
+    nones = np.concatenate(nones)
+    if not nones.all():  # instead of the zero-length edges to the row's own vertex
+        keys[:, nones] = keys[0, np.argmin(nones)]
     unique, slot_edge = np.unique(keys, return_inverse=True)
+    ends = np.stack([unique // n_verts, unique % n_verts]).astype(np.intp)
     offsets = np.zeros(len(counts) + 1, np.int64)
     np.cumsum(counts, out=offsets[1:])
-    return EdgeSlots(((unique // n_verts).astype(np.intp), (unique % n_verts).astype(np.intp)),
-                     slot_edge.reshape(keys.shape).astype(np.intp),
-                     np.concatenate(coefs, axis=1).astype(np.float32),
-                     np.concatenate(shares).astype(np.float32), np.concatenate(nones), offsets)
+    work = (np.empty((2, 3, len(unique)), np.float32), np.empty(len(unique), np.float32),
+            np.empty(keys.shape, np.float32))
+    return EdgeSlots(int(n_verts), (ends[0], ends[1]), ends[:, None, :] * 3 + np.arange(3)[:, None],
+                     np.ascontiguousarray(slot_edge.reshape(keys.shape), np.intp),
+                     np.ascontiguousarray(np.concatenate(coefs, axis=1), np.float32),
+                     np.concatenate(shares).astype(np.float32), nones, offsets, work)
 
 
-def edge_slot_shrinkage(slots, skin):
-    """The shrinkage (R,) float32 of every row of ``slots`` for the face's skin (N, 3): equal
-    to :func:`shrinkage` of each row's plan at its vertex."""
+def edge_slot_shrinkage(slots, skin, out=None):
+    """The shrinkage (R,) float32 of every row of ``slots`` for the face's skin (N, 3), into
+    ``out`` (R,) float32 when given: equal to :func:`shrinkage` of each row's plan at its
+    vertex (to float32 rounding).
+
+    Per frame, in float32 and in the plan's scratch arrays (no temporaries: fresh memory
+    costs as much as the arithmetic here): one gather of both ends' x, y, z of every edge
+    and its length ``l``, then per row ``share - sum over its two sides of
+    1 / (a' / l2 + b' / l3)`` from one gather of ``l`` at its four slots.  A division per
+    slot, as eq. 4 is written (``a' * (1 / l2)`` rounds differently: a skin at rest would
+    no longer give exactly the same s, which a wrinkle with r = 0 must keep at 0)."""
     p = np.asarray(skin, np.float32)
-    d = np.take(p, slots.ends[1], axis=0)
-    d -= np.take(p, slots.ends[0], axis=0)
-    length = np.sqrt(np.einsum("ij,ij->i", d, d))
+    if p.shape != (slots.n_verts, 3):
+        raise ValueError(f"skin must have shape ({slots.n_verts}, 3), got {p.shape}")
+    ends, length, q = slots.work
+    np.take(p.reshape(-1), slots.flat, out=ends, mode="clip")  # clip: no bounds check, in range
+    d = ends[1]
+    d -= ends[0]
+    d *= d
+    np.add(d[0], d[1], out=length)
+    length += d[2]
+    np.sqrt(length, out=length)
     np.maximum(length, np.float32(_TINY), out=length)
-    q = slots.slot_coef / np.take(length, slots.slot_edge)  # a'/l2, b'/l3 per side
-    s = slots.share - (1.0 / (q[0] + q[1]) + 1.0 / (q[2] + q[3]))
+    np.take(length, slots.slot_edge, out=q, mode="clip")
+    np.divide(slots.slot_coef, q, out=q)  # a'/l2, b'/l3 per side
+    side = q[0::2]
+    side += q[1::2]
+    np.reciprocal(side, out=side)
+    side[0] += side[1]
+    s = np.subtract(slots.share, side[0], out=out)
     s[slots.none] = 0.0
     return s

@@ -80,8 +80,10 @@ def plan(mapped, rest, field1, field2):
     return field.edge_slots(parts, mapped.n_verts)
 
 
-def shrinkages(fine_plan, skin):
+def shrinkages(fine_plan, skin, out=None):
     """The frame's shrinkage across each field (2, N) float32 at the mesh's vertices, from
-    the skin (N, 3) float32; 0 at vertices in no triangle.  Equal to
+    the skin (N, 3) float32, into ``out`` (2, N) float32 when given; 0 at vertices in no
+    triangle.  Both fields in one pass over the edges they share.  Equal to
     :func:`field.shrinkage` at each vertex's copy (tested)."""
-    return field.edge_slot_shrinkage(fine_plan, skin).reshape(2, -1)
+    flat = None if out is None else out.reshape(-1)
+    return field.edge_slot_shrinkage(fine_plan, skin, flat).reshape(2, -1)

@@ -294,6 +294,106 @@ def carve(context, face, progress):
     return results
 
 
+# --------------------------------------------------------------------------- farm bake
+BAKE_NODE = "Fine Wrinkles Baked Shrinkage"
+BAKE_RESOLUTION = 512  # the shrinkage varies slowly over the skin: a 512 map is plenty
+BAKE_PADDING = 4  # pixels of edge padding around the UV islands (bilinear reads at borders)
+
+
+def _group_node(face):
+    mat = settings(face).material
+    nt = mat.node_tree if mat is not None else None
+    return (nt, nt.nodes.get(GROUP_NODE)) if nt is not None else (None, None)
+
+
+def can_bake(face):
+    return _group_node(face)[1] is not None
+
+
+def has_baked_shrinkage(face):
+    nt, _node = _group_node(face)
+    return nt is not None and nt.nodes.get(BAKE_NODE) is not None
+
+
+def _shrinkage_now(face, n):
+    """The shrinkage attributes (2, n) the frame stage wrote for the current frame."""
+    ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    out = np.zeros((2, n), np.float32)
+    for k, name in enumerate((shading.S1_ATTR, shading.S2_ATTR)):
+        att = ev.attributes.get(name)
+        if att is not None and att.domain == "POINT" and att.data_type == "FLOAT" and len(att.data) == n:
+            att.data.foreach_get("value", out[k])
+    return out
+
+
+def bake_shrinkage(face, scene, frame_start, frame_end, progress):
+    """Bake the shrinkage across both fields, frame by frame, for a farm with no add-on:
+    an OpenEXR (half) image sequence in UV space next to the .blend (red: the first field,
+    green: the second), rasterised with the same linear interpolation across each triangle
+    as the renderer's, and read by the *Fine Wrinkles* group (``Use Baked``).  Returns the
+    number of frames.  ``progress(i, total)``.  Raises FineError."""
+    nt, group = _group_node(face)
+    if group is None:
+        raise FineError(f'"{face.name}" has no fine wrinkles in its material to bake')
+    if not bpy.data.filepath:
+        raise FineError("Save the .blend file first: the bake is written next to it")
+    fs = settings(face)
+    s = surface.Surface(face, fs.uv_map or None)
+    n = len(s.rest)
+    stem = bpy.path.clean_name(f"{face.name}_fine_shrinkage")
+    first = f"//wrinkle_bake/{stem}_{frame_start:04d}.exr"
+    total = frame_end - frame_start + 1
+    here = scene.frame_current
+    try:
+        for i, f in enumerate(range(frame_start, frame_end + 1)):
+            scene.frame_set(f)
+            sh = _shrinkage_now(face, n)
+            values = np.stack([sh[0][s.tris], sh[1][s.tris]], axis=-1)  # (T, 3, 2)
+            img, covered = raster.rasterize(s.uv, values, BAKE_RESOLUTION)
+            img, _grown = raster.pad(img, covered, BAKE_PADDING)
+            px = np.zeros((BAKE_RESOLUTION, BAKE_RESOLUTION, 4), np.float32)
+            px[..., :2], px[..., 3] = img, 1.0
+            images.write(px, f"//wrinkle_bake/{stem}_{f:04d}.exr", "OPEN_EXR", "16", name=stem)
+            progress(i, total)
+    except images.ImageError as exc:
+        raise FineError(str(exc)) from None
+    finally:
+        scene.frame_set(here)
+    free_baked_shrinkage(face)
+    image = bpy.data.images.load(bpy.path.abspath(first), check_existing=False)
+    image.name = stem
+    image.source = "SEQUENCE"
+    image.filepath = first  # relative to the .blend: the farm finds it
+    image.colorspace_settings.name = images.NON_COLOR
+    x, y = group.location.x, group.location.y
+    tex = nodes.ensure_node(nt, BAKE_NODE, "ShaderNodeTexImage", (x - 400, y - 350))
+    tex.image = image
+    tex.interpolation = "Linear"
+    tex.extension = "EXTEND"
+    user = tex.image_user
+    user.frame_start, user.frame_offset, user.frame_duration = frame_start, frame_start - 1, total
+    user.use_auto_refresh = True
+    nt.links.new(nt.nodes[UV_NODE].outputs["UV"], tex.inputs["Vector"])
+    nt.links.new(tex.outputs["Color"], group.inputs["Baked Shrinkage"])
+    group.inputs["Use Baked"].default_value = 1.0
+    return total
+
+
+def free_baked_shrinkage(face):
+    """Back to the live shrinkage attributes (the baked files are kept)."""
+    nt, group = _group_node(face)
+    if nt is None:
+        return
+    tex = nt.nodes.get(BAKE_NODE)
+    if tex is not None:
+        image = tex.image
+        nt.nodes.remove(tex)
+        if image is not None and image.users == 0:
+            bpy.data.images.remove(image)
+    if group is not None:
+        group.inputs["Use Baked"].default_value = 0.0
+
+
 # --------------------------------------------------------------------------- the material
 def _material(face):
     fs = settings(face)
@@ -357,6 +457,7 @@ def sync(face):
 def remove(face):
     """Take the fine wrinkles out of the material (the layer below goes back to the BSDF)
     and forget the images and fields."""
+    free_baked_shrinkage(face)
     fs = settings(face)
     mat = fs.material
     if mat is not None and mat.node_tree is not None:

@@ -11,7 +11,10 @@ amplitude modulation ``M(s)`` (eq. 5) of its own direction's shrinkage ``s`` (§
 ``H1``, ``H2`` are the height images (1 = no furrow, the paper's white), ``s1``, ``s2``
 the point attributes the frame stage writes (``S1_ATTR``, ``S2_ATTR``), interpolated across
 each triangle by the renderer as §7 interpolates shrinkage from the three vertices, and
-``r`` the rest height (0.5 by default: fine wrinkles show at rest).  ``h`` goes into a Bump
+``r`` the rest height (0.5 by default: fine wrinkles show at rest).  After *Bake for Farm*
+the group reads ``s1``, ``s2`` from the red and green of its ``Baked Shrinkage`` input
+instead (``Use Baked`` = 1): an image sequence of the frames' shrinkage in UV space, which
+renders with no add-on (``glue.bando.fine.bake_shrinkage``).  ``h`` goes into a Bump
 node whose ``Normal`` input is the group's, so the group stacks on whatever normal the
 material had (the wrinkle maps' included: ``glue.nodes.normal_input``).
 ``core.bando.field.modulation`` is the NumPy reference; a test compares them.
@@ -29,7 +32,7 @@ FINE_GROUP = "Fine Wrinkles"
 PIGMENT_GROUP = "Skin Pigment"
 S1_ATTR = "ewrinkles_fine_s1"
 S2_ATTR = "ewrinkles_fine_s2"
-VERSION = 1
+VERSION = 2  # 2: the Baked Shrinkage and Use Baked inputs
 # Absorption of melanin and hemoglobin per RGB channel: the paper determined its values
 # empirically and does not print them.  Ours follow the shape of the two absorption spectra
 # over the visible band: melanin absorbs more toward blue (skin turns brown), hemoglobin
@@ -101,17 +104,28 @@ def _build_fine(ng):
             "Depth of a full furrow, in scene units")
     _socket(ng, "Normal", "INPUT", "NodeSocketVector", None, None, None,
             "The normal to bump (the material's own, or the wrinkle maps')", hide_value=True)
+    _socket(ng, "Baked Shrinkage", "INPUT", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0),
+            description="The shrinkage across each field baked for a farm (red: the first, green: "
+            "the second), read when Use Baked is 1")
+    _socket(ng, "Use Baked", "INPUT", "NodeSocketFloat", 0.0, 0.0, 1.0,
+            "1: read the shrinkage from Baked Shrinkage (a farm bake), 0: from the mesh's "
+            "attributes, which the add-on writes every frame")
     _socket(ng, "Normal", "OUTPUT", "NodeSocketVector", description="The bumped normal")
     b = Builder(ng)
     gin = b.node("NodeGroupInput")
     b.x = 250
     r = gin.outputs["Rest Height"]
+    baked = b.node("ShaderNodeSeparateColor")
+    b.link(gin.outputs["Baked Shrinkage"], baked.inputs["Color"])
     total = None
-    pairs = ((gin.outputs["Height 1"], S1_ATTR), (gin.outputs["Height 2"], S2_ATTR))
-    for k, (height, attr) in enumerate(pairs):
+    pairs = ((gin.outputs["Height 1"], S1_ATTR, 0), (gin.outputs["Height 2"], S2_ATTR, 1))
+    for k, (height, attr, channel) in enumerate(pairs):
         node = b.node("ShaderNodeAttribute", attribute_type="GEOMETRY", attribute_name=attr)
         node.name = node.label = f"Shrinkage {k + 1}"
-        term = b.math("MULTIPLY", b.math("SUBTRACT", height, 1.0), _modulation(b, node.outputs["Fac"], r))
+        live = node.outputs["Fac"]  # s = live + (baked - live) * use
+        s_k = b.math("MULTIPLY_ADD", b.math("SUBTRACT", baked.outputs[channel], live),
+                     gin.outputs["Use Baked"], live)
+        term = b.math("MULTIPLY", b.math("SUBTRACT", height, 1.0), _modulation(b, s_k, r))
         total = term if total is None else b.math("ADD", total, term)
     b.x = 600
     bump = b.node("ShaderNodeBump")
