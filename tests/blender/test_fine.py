@@ -211,3 +211,20 @@ def test_directions_from_the_muscles_alone():
     scenes.add_sheet(face, pull=0.3)  # a Frontalis: pulls the forehead up, squeezing it
     assert _carve(face) == {"FINISHED"}
     assert face.ewrinkles_face.fine_wrinkles.furrows > 20
+
+
+def test_the_shrinkage_sees_the_muscles_pull():
+    """The frame stage hands the skin pulled by the muscles to the sources after them: a
+    contracting Frontalis squeezes the forehead, and the fine wrinkles deepen with it."""
+    from tests.blender import scenes
+
+    face = uv_face(shape_key=False)
+    muscle = scenes.add_sheet(face, pull=0.3)
+    assert _carve(face) == {"FINISHED"}
+    scene = bpy.context.scene
+    muscle.ewrinkles_muscle.contraction = 0.0
+    scene.frame_set(1)
+    assert np.abs(_attr(face, shading.S1_ATTR)).max() < 1e-4
+    muscle.ewrinkles_muscle.contraction = 1.0
+    scene.frame_set(1)
+    assert _attr(face, shading.S1_ATTR).max() > 0.05  # (0 before the pull was handed on)

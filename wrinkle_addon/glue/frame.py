@@ -197,6 +197,22 @@ def _write_shading(ob, active, statics, contributions, ev=None):
         ev.update()  # the viewport redraws from it, as after the in-place geometry write
 
 
+def _contributions(ob, active, statics, skin, inputs):
+    """Every active source's contribution, in the registry's order.  A source that moves the
+    skin tangentially (Waters' pull) deforms it for the sources after it: their compression
+    and shrinkage see the pulled skin.  Heights never feed back: every source reads the
+    skin before any wrinkle."""
+    out, deformed = [], skin
+    for s, frame_in in zip(active, inputs):
+        c = s.contribute(ob, statics[s.name], deformed, frame_in)
+        out.append(c)
+        if s.geometric and c.offset is not None and len(c.offset):
+            if deformed is skin:
+                deformed = skin.copy()
+            deformed[statics[s.name].footprint.offset_verts] += c.offset.T
+    return out
+
+
 def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=None, changes=None):
     """Evaluate every active wrinkle source on one face and write the result once.
 
@@ -244,8 +260,7 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
         old_skin, old_inputs = state.orig_inputs
         if old_inputs == inputs and np.array_equal(old_skin, skin):
             return False
-    contributions = [s.contribute(ob, statics[s.name], skin, frame_in)
-                     for s, frame_in in zip(active, inputs[2:])]
+    contributions = _contributions(ob, active, statics, skin, inputs[2:])
     for s in registry.sources():
         status.set(ob, s.name, s.problems(ob, statics[s.name]) if s in active else "")
     if not enabled:
@@ -315,6 +330,15 @@ def _rendering():
     return bool(running and running("RENDER"))
 
 
+_render_frame = [False]  # the frame being computed is for a render or an export
+
+
+def render_frame():
+    """Whether the frame being computed is a render's or an export's (a source shows its
+    render visibility then, its viewport visibility otherwise)."""
+    return _render_frame[0] or _rendering()
+
+
 _in_frame_sync = False
 
 
@@ -350,7 +374,11 @@ def on_frame_change_post(scene, depsgraph=None):
     # Renders and exports: write back, reading through the context's depsgraph, since the
     # handler's argument drops other animated shape keys during render(animation=True)
     # (docs/architecture.md, "The frame handler").
-    update_scene(scene, _current_depsgraph(scene))
+    _render_frame[0] = depsgraph is not None and depsgraph.mode == "RENDER"
+    try:
+        update_scene(scene, _current_depsgraph(scene))
+    finally:
+        _render_frame[0] = False
 
 
 @persistent
