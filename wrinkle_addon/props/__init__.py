@@ -12,12 +12,12 @@ where they apply and soft limits that keep an artist in the useful range.
 import bpy
 from bpy.props import PointerProperty
 
-from . import bando, face, maps, migrate, muscles
+from . import bando, face, maps, migrate, muscles, patterns
 
 PREFIX = "ewrinkles_"
 classes = (muscles.WrinkleMuscleSettings, muscles.WrinkleMuscleRef, maps.WrinkleMapExpression,
            maps.WrinkleMapSettings, bando.WrinkleCurveSettings, bando.WrinkleCurveRef,
-           face.WrinkleFaceSettings)
+           patterns.PatternLayer, face.WrinkleFaceSettings)
 _register, _unregister = bpy.utils.register_classes_factory(classes)
 
 

@@ -9,13 +9,14 @@ import bpy
 from bpy.props import PointerProperty
 
 from ..glue import registry
-from . import curves, fine, maps, muscles
+from . import curves, fine, maps, muscles, patterns
 
 SOURCES = (
     muscles.MuscleSource(),  # Zhang, Sim & Tan 2005 on Waters' muscles
     maps.MapSource(),  # Jimenez et al. 2011: tension-driven zone weights, weights bake, panel
     curves.CurveSource(),  # Bando et al. 2002, §6-7: large-scale wrinkles along curves
     fine.FineSource(),  # Bando et al. 2002, §5, §7: carved fine wrinkles, shrinkage per frame
+    patterns.PatternSource(),  # pattern functions: forehead, eye corner, cheek, frown, dimple, eye pouch
 )
 
 

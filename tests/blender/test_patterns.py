@@ -1,0 +1,244 @@
+"""Pattern-function layers in Blender: a stack of layers on the face, each a pattern in the
+frame of an Empty, damped toward its region's border, summed with the other sources."""
+
+import bpy
+import numpy as np
+import pytest
+
+from tests.blender import scenes
+from tests.blender.test_curves import heights
+from wrinkle_addon.core import patterns
+from wrinkle_addon.glue import patterns as glue
+
+MID = scenes.HEIGHT / 2
+
+
+def _face(enable=True):
+    face = scenes.make_face()
+    if enable:
+        assert bpy.ops.wrinkle.enable() == {"FINISHED"}
+    return face
+
+
+def _add(face, kind="FOREHEAD", at=(0.0, -0.2, MID)):
+    bpy.context.scene.cursor.location = at
+    bpy.context.view_layer.objects.active = face
+    assert bpy.ops.wrinkle.add_pattern(kind=kind, where="CURSOR") == {"FINISHED"}
+    st = face.ewrinkles_face.patterns
+    return st.layers[st.active]
+
+
+def _rest(face):
+    return np.array([v.co for v in face.data.vertices])
+
+
+def _expected(face, lay, t):
+    """The layer's heights from the formula: the pattern at the vertices' frame coordinates,
+    times the radius damping, times the frame's size."""
+    rest = _rest(face)
+    m = np.array(lay.frame.matrix_world.inverted() @ face.matrix_world)
+    local = rest @ m[:3, :3].T + m[:3, 3]
+    centre = np.array(lay.frame.matrix_world.translation)
+    damp = patterns.damping_radius(np.linalg.norm(rest - centre, axis=1), lay.radius, lay.border)
+    spec = patterns.PATTERNS[lay.kind]
+    p = {q.key: getattr(lay, q.prop) for q in spec.params}
+    f = patterns.pattern(lay.kind, local[:, 0], local[:, 1], t, **p)
+    return f * damp * lay.frame.matrix_world.col[2].xyz.length
+
+
+def test_a_layer_added_at_the_cursor_sits_on_the_skin_facing_out_and_follows_its_formula():
+    face = _face()
+    lay = _add(face)
+    ob = lay.frame
+    assert ob is not None and ob.type == "EMPTY"
+    z = np.array(ob.matrix_world.col[2].xyz.normalized())
+    np.testing.assert_allclose(z, [0.0, -1.0, 0.0], atol=1e-6)  # the patch faces -Y
+    assert abs(ob.matrix_world.translation.y) < 1e-6  # on the skin, not at the cursor
+    assert lay.follow_scene and lay.kind == "FOREHEAD"
+    scene = bpy.context.scene
+    scene.frame_set(1)
+    h = heights(face)
+    t = lay.speed * 1 / (scene.render.fps / scene.render.fps_base)
+    want = _expected(face, lay, t)
+    np.testing.assert_allclose(h, want, atol=2e-7)
+    assert np.abs(h).max() > 2e-4  # visible: furrows of a few tenths of a millimetre
+    far = np.linalg.norm(_rest(face) - np.array(ob.matrix_world.translation), axis=1) > lay.radius
+    assert far.any() and (h[far] == 0.0).all()
+
+
+def test_moving_the_frame_moves_the_pattern_and_the_scene_time_runs_it():
+    face = _face()
+    lay = _add(face, "CHEEK")
+    scene = bpy.context.scene
+    scene.frame_set(1)
+    before = heights(face)
+    lay.frame.location.x += 0.02
+    moved = heights(face)
+    assert np.abs(moved - before).max() > 0.3 * np.abs(before).max() > 0
+    np.testing.assert_allclose(moved, _expected(face, lay, lay.speed / 24.0 * 1), atol=2e-7)
+    scene.frame_set(13)
+    assert np.abs(heights(face) - moved).max() > 0.2 * np.abs(moved).max()  # the ripples run
+    lay.follow_scene = False
+    lay.time = 0.5
+    a = heights(face)
+    lay.time = 0.5 + 2 * np.pi  # a running cycle repeats
+    np.testing.assert_allclose(heights(face), a, atol=1e-7)
+
+
+def test_strength_follows_a_shape_key_a_muscle_or_the_compression():
+    face = _face()
+    lay = _add(face)
+    lay.follow_scene = False
+    key = face.data.shape_keys.key_blocks["BrowsUp"]
+    lay.drive, lay.drive_shape_key = "SHAPE_KEY", "BrowsUp"
+    key.value = 0.0
+    assert np.abs(heights(face)).max() == 0.0
+    key.value = 0.5
+    half = heights(face)
+    key.value = 1.0
+    full = heights(face)
+    assert np.abs(full).max() > 0 and np.allclose(half, 0.5 * full, atol=1e-7)
+    lay.drive = "COMPRESSION"  # BrowsUp squashes the forehead vertically
+    lay.full_compression = 1.0
+    key.value = 0.0
+    assert np.abs(heights(face)).max() == 0.0
+    key.value = 1.0
+    squashed = heights(face)
+    assert 0 < np.abs(squashed).max() < np.abs(full).max() * 1.01
+
+
+def test_hidden_layers_and_the_stack_operators():
+    face = _face()
+    lay = _add(face)
+    lay.follow_scene = False
+    base = heights(face)
+    lay.show_viewport = False
+    assert np.abs(heights(face)).max() == 0.0
+    lay.show_viewport = True
+    assert bpy.ops.wrinkle.duplicate_pattern() == {"FINISHED"}
+    st = face.ewrinkles_face.patterns
+    assert len(st.layers) == 2 and st.layers[1].frame == lay.frame
+    np.testing.assert_allclose(heights(face), 2 * base, atol=1e-7)  # the layers add up
+    assert bpy.ops.wrinkle.move_pattern(direction="UP") == {"FINISHED"} and st.active == 0
+    assert bpy.ops.wrinkle.remove_pattern() == {"FINISHED"} and len(st.layers) == 1
+    np.testing.assert_allclose(heights(face), base, atol=1e-7)
+    assert bpy.ops.wrinkle.mirror_pattern() == {"FINISHED"}
+    mirrored = st.layers[st.active]
+    assert mirrored.frame != lay.frame and mirrored.frame.matrix_world.determinant() < 0
+    h = heights(face)
+    rest = _rest(face)
+    # the mirror image across x = 0: each vertex has a partner at -x
+    order = np.lexsort((rest[:, 2], np.round(rest[:, 0], 6)))
+    partner = np.lexsort((rest[:, 2], np.round(-rest[:, 0], 6)))
+    np.testing.assert_allclose(h[order], h[partner], atol=1e-7)
+    assert bpy.ops.wrinkle.remove_pattern() == {"FINISHED"}
+
+
+def test_apply_bakes_the_layer_into_a_shape_key():
+    face = _face()
+    lay = _add(face, "DIMPLE")
+    h = heights(face)
+    assert h.min() < -1e-4  # a dip
+    assert bpy.ops.wrinkle.apply_pattern() == {"FINISHED"}
+    assert len(face.ewrinkles_face.patterns.layers) == 0
+    key = face.data.shape_keys.key_blocks["Pattern Dimple"]
+    assert key.value == 1.0
+    moved = np.array([p.co for p in key.data]) - _rest(face)
+    np.testing.assert_allclose(-moved[:, 1], h, atol=1e-6)
+    del lay
+
+
+def test_patterns_add_to_the_other_sources():
+    face, _muscle = scenes.wrinkled_face()
+    bpy.context.scene.frame_set(1)
+    alone = heights(face)
+    lay = _add(face, "FROWN")
+    lay.follow_scene = False
+    both = heights(face)
+    lay.show_viewport = False
+    assert np.abs(heights(face) - alone).max() < 1e-9
+    lay.show_viewport = True
+    pattern_only = both - alone
+    np.testing.assert_allclose(pattern_only, _expected(face, lay, lay.time), atol=1e-6)
+
+
+@pytest.mark.parametrize("breakage, message", [
+    ("delete_frame", "lost its frame"),
+    ("radius", "radius of 0"),
+    ("empty_group", "is empty"),
+    ("huge", None),
+])
+def test_bad_input_gets_a_message_and_no_nan(breakage, message):
+    from wrinkle_addon.glue import status
+
+    face = _face()
+    lay = _add(face)
+    if breakage == "delete_frame":
+        bpy.data.objects.remove(lay.frame)
+    elif breakage == "radius":
+        lay.radius = 0.0
+    elif breakage == "empty_group":
+        face.vertex_groups.new(name="Nothing")
+        lay.region, lay.vertex_group = "GROUP", "Nothing"
+    else:
+        lay.depth = 1e30
+        lay.waviness = 1e30
+    h = heights(face)
+    assert np.isfinite(h).all()
+    if message:
+        assert (h == 0).all()
+        assert message in status.get(face, "patterns", family=True)
+
+
+def test_a_vertex_group_region_fades_to_zero_at_its_border():
+    face = _face()
+    lay = _add(face)
+    lay.follow_scene = False
+    rest = _rest(face)
+    inside = np.flatnonzero(np.abs(rest[:, 0]) < 0.03)
+    vg = face.vertex_groups.new(name="Middle")
+    vg.add(inside.tolist(), 1.0, "REPLACE")
+    lay.region, lay.vertex_group, lay.border = "GROUP", "Middle", 0.01
+    h = heights(face)
+    outside = np.ones(len(rest), bool)
+    outside[inside] = False
+    assert (h[outside] == 0).all() and np.abs(h[inside]).max() > 1e-4
+    edge = np.abs(np.abs(rest[:, 0]) - 0.03) < 0.0025
+    assert np.abs(h[edge & ~outside]).max() < 0.3 * np.abs(h[inside]).max()
+    assert glue.vertex_group_weights(face, "Middle").sum() == len(inside)
+
+
+def test_bake_wrinkle_map_bakes_the_patterns():
+    from tests.blender.test_curves import uv_face
+    from wrinkle_addon.glue.maps import bake as mapbake
+
+    face = uv_face()
+    lay = _add(face)
+    lay.follow_scene = False
+    lay.drive, lay.drive_shape_key = "SHAPE_KEY", "BrowsUp"  # nothing at rest
+    formed = mapbake.bake_height(face, "MUSCLES")  # no muscles: the pattern alone, at full strength
+    assert formed.min() < -1e-4 and formed.max() > 1e-4
+    assert np.all(mapbake.bake_height(face, "POSE") == 0.0)
+    face.data.shape_keys.key_blocks["BrowsUp"].value = 1.0
+    bpy.context.view_layer.update()
+    np.testing.assert_allclose(mapbake.bake_height(face, "POSE"), formed, atol=1e-7)
+    pd = mapbake.bake_wrinkle_map(face, 128, "MUSCLES")
+    assert np.abs(pd[..., :2] - 0.5).max() > 0.05  # the map shows the furrows' slopes
+
+
+@pytest.mark.render
+def test_a_layer_hidden_in_renders_is_not_rendered(render_small, tmp_path):
+    face = _face()
+    lay = _add(face)
+    lay.follow_scene = False
+    lay.depth = -1.0  # deep furrows, plain in a tiny render
+    scene = bpy.context.scene
+    scenes.add_camera_and_light(scene)
+    px = {}
+    for name, viewport, render in (("none", False, False), ("hidden", True, False), ("shown", True, True)):
+        lay.show_viewport, lay.show_render = viewport, render
+        px[name] = render_small(scene, tmp_path / f"{name}.png", size=32, samples=2)
+        if name == "hidden":
+            assert np.abs(heights(face)).max() > 1e-4  # the viewport shows it
+    assert np.abs(px["hidden"] - px["none"]).max() < 1e-6
+    assert np.abs(px["shown"] - px["none"]).max() > 0.05

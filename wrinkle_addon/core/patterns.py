@@ -1,0 +1,274 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Pattern functions for detailed animated expressions ("Pattern functions and tears", §3).
+
+A pattern is an implicit surface ``p(x, y, t) - z = 0`` in the local frame of the layer
+(an Empty: its x, y span the skin, its z the skin's normal), so each pattern is a height
+``z = f(x, y, t)`` in local units.  The frame's scale scales the pattern in all three axes:
+the add-on displaces the skin along its normal by ``f`` times the frame's z scale.  The
+layer is damped to zero toward its region's border (:func:`damping_radius`,
+:func:`damping_border`) and, for the paper's "dynamic animation", applied only at a random
+fraction of the region's vertices (:func:`valid_vertices`).
+
+The text was extracted from a PDF; the readings chosen, and why:
+
+* **Forehead** - the formula is missing from the text ("a controls depth of wrinkles and b
+  describes the style of wrinkles", a running cycle).  Ours: ``f = a sin(y + b sin x - t)``:
+  horizontal furrows (across the local y) whose *style* b bends them from straight (b = 0)
+  into waves, running upward as t grows (a running cycle, period 2 pi in t).
+* **Eye corner** - ``f = a exp(-b |sqrt(x^2 + y^2) - t sin(g arctan(y / x))|)``.  The
+  garbled ``rxsin`` is ``t x sin`` (the extraction turns t into r elsewhere too): a rose
+  curve ``rho = t sin(g phi)`` whose petals radiate from the eye corner; b is the paper's
+  preset constant (how narrow each furrow is), g the number of furrows (petals per half
+  turn), t their length.  ``arctan(y / x)``, not ``atan2``: the pattern is mirror-symmetric
+  about the y axis, as printed.  a < 0 carves furrows.
+* **Cheek** - ``f = a sin(b sqrt(x^2 + y^2) + t)``: ``y¥ +y>`` is the square root of
+  ``x^2 + y^2`` and ``+1`` is ``+ t``.  Concentric ripples, b of them per 2 pi of radius,
+  running as t grows (period 2 pi).
+* **Frown** - ``f = a sin(x y / (b + t))``: ``xxy`` is ``x × y`` as in ``Bxy`` (``b × ...``)
+  of the cheek, ``f+1`` is ``b + t``.  Furrows along the hyperbolas ``x y = k pi (b + t)``:
+  nearly vertical beside the vertical axis, fanning out from the glabella; b sets the
+  distance between them.
+* **Dimple** - ``f = a (log(x^2 + y^2 + t) - log(1 + t))``, from ``log(x^2 + y^2 + t)``:
+  the printed function has no depth parameter and grows without bound away from the
+  centre, so it is scaled by a and shifted to 0 at the unit circle (the frame's scale is
+  the dimple's radius).  The dimple is ``a log((1 + t) / t)`` deep: t > 0 sets how narrow
+  and deep it is (small t: deep and sharp).
+* **Eye pouch** - ``f = |cos(x + a t) + cos(y + b t)| / g``: a and b the trembling's
+  speeds along x and y (its style), g the flatness (the bumps stand out by at most 2 / g).
+  Periodic in t when a and b are commensurate.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .mesh import edge_shrinkage, smoothstep
+
+_EPS = 1e-12
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter of a pattern: its key (``alpha``, ``beta``, ``gamma``), the setting that
+    holds it (``prop``, e.g. ``depth``), the name the artist sees, and a default that gives a
+    visible result."""
+
+    key: str
+    prop: str
+    name: str
+    default: float
+
+
+def forehead(x, y, t, alpha, beta, gamma=None):
+    return alpha * np.sin(y + beta * np.sin(x) - t)
+
+
+def eye_corner(x, y, t, alpha, beta, gamma):
+    rho = np.sqrt(x * x + y * y)
+    phi = np.arctan(y / np.where(np.abs(x) < _EPS, np.where(x < 0, -_EPS, _EPS), x))
+    return alpha * np.exp(-beta * np.abs(rho - t * np.sin(gamma * phi)))
+
+
+def cheek(x, y, t, alpha, beta, gamma=None):
+    return alpha * np.sin(beta * np.sqrt(x * x + y * y) + t)
+
+
+def frown(x, y, t, alpha, beta, gamma=None):
+    return alpha * np.sin(x * y / np.maximum(beta + t, _EPS))
+
+
+def dimple(x, y, t, alpha, beta=None, gamma=None):
+    t = np.maximum(t, 1e-6)
+    return alpha * (np.log(x * x + y * y + t) - np.log1p(t))
+
+
+def eye_pouch(x, y, t, alpha, beta, gamma):
+    return np.abs(np.cos(x + alpha * t) + np.cos(y + beta * t)) / np.maximum(gamma, _EPS)
+
+
+@dataclass(frozen=True)
+class Pattern:
+    """A pattern type: its height function, its parameters, its default time ``t`` and
+    whether ``t`` runs with the scene by default (running cycles; the eye corner's and the
+    dimple's ``t`` is a size instead)."""
+
+    function: object
+    params: tuple
+    time: float
+    runs: bool
+
+
+# (type, name, description): the list the interface shows
+KINDS = (
+    ("FOREHEAD", "Forehead", "Horizontal forehead furrows, straight or wavy, running as time goes on"),
+    ("EYE_CORNER", "Eye Corner", "Crow's feet: furrows fanning out from the eye corner"),
+    ("CHEEK", "Cheek", "Concentric ripples on the cheek"),
+    ("FROWN", "Frown", "Frown furrows between the brows"),
+    ("DIMPLE", "Dimple", "A dimple: a round indentation of the cheek"),
+    ("EYE_POUCH", "Eye Pouch", "Trembling skin under the eye (anger, sadness)"),
+)
+
+PATTERNS = {
+    "FOREHEAD": Pattern(forehead, (Param("alpha", "depth", "Depth", -0.12),
+                                   Param("beta", "waviness", "Waviness", 0.3)), 0.0, True),
+    "EYE_CORNER": Pattern(eye_corner, (Param("alpha", "depth", "Depth", -0.12),
+                                       Param("beta", "sharpness", "Sharpness", 6.0),
+                                       Param("gamma", "count", "Count", 3.0)), 1.0, False),
+    "CHEEK": Pattern(cheek, (Param("alpha", "depth", "Depth", -0.08),
+                             Param("beta", "count", "Count", 6.0)), 0.0, True),
+    "FROWN": Pattern(frown, (Param("alpha", "depth", "Depth", -0.12),
+                             Param("beta", "spacing", "Spacing", 0.3)), 0.0, True),
+    "DIMPLE": Pattern(dimple, (Param("alpha", "depth", "Depth", 0.1),), 0.2, False),
+    "EYE_POUCH": Pattern(eye_pouch, (Param("alpha", "speed_x", "Speed X", 6.0),
+                                     Param("beta", "speed_y", "Speed Y", 6.0),
+                                     Param("gamma", "flatness", "Flatness", 40.0)), 0.0, True),
+}
+
+
+def pattern(kind, x, y, t, alpha=0.0, beta=0.0, gamma=0.0):
+    """The height ``f(x, y, t)`` (local units) of pattern ``kind`` at local coordinates ``x``,
+    ``y`` (arrays), time ``t``, parameters ``alpha``, ``beta``, ``gamma`` (those the pattern
+    does not use are ignored).  Non-finite results (huge parameters) become 0."""
+    try:
+        fn = PATTERNS[kind].function
+    except KeyError:
+        raise ValueError(f"unknown pattern {kind!r}; one of {', '.join(PATTERNS)}") from None
+    x = np.asarray(x, np.float64)
+    y = np.asarray(y, np.float64)
+    with np.errstate(all="ignore"):
+        h = fn(x, y, float(t), float(alpha), float(beta), float(gamma))
+    return np.nan_to_num(np.asarray(h, np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+
+
+def damping_radius(distance, radius, width):
+    """A radius region's damping: 1 inside ``radius - width``, falling to 0 at ``radius``
+    along ``1 - smoothstep`` (C¹: zero slope at both ends), 0 beyond.  ``width`` is clamped to
+    ``[0, radius]``; 0 gives a hard edge."""
+    d = np.asarray(distance, np.float64)
+    radius = max(float(radius), 0.0)
+    width = min(max(float(width), 0.0), radius)
+    if width <= _EPS:
+        return (d <= radius).astype(np.float64)
+    return 1.0 - smoothstep((d - (radius - width)) / width)
+
+
+def damping_border(border_distance, width, weight=None):
+    """A vertex-group region's damping: ``smoothstep(border_distance / width)``, the distance
+    from each region vertex to the nearest vertex outside the region, rising from 0 at the
+    border to 1 at ``width`` inside (C¹), times the group ``weight`` when given."""
+    d = np.asarray(border_distance, np.float64)
+    out = np.ones_like(d) if float(width) <= _EPS else smoothstep(d / float(width))
+    return out if weight is None else out * np.clip(np.asarray(weight, np.float64), 0.0, 1.0)
+
+
+def valid_vertices(n_region, fraction, seed):
+    """The paper's "valid vertices" for dynamic animation: a boolean mask over the region's
+    ``n_region`` vertices with ``round(fraction n_region)`` of them set, drawn with ``seed``
+    (the same seed, the same vertices).  Fraction 1 keeps every vertex."""
+    n_region = int(n_region)
+    k = int(round(np.clip(float(fraction), 0.0, 1.0) * n_region))
+    mask = np.zeros(n_region, bool)
+    if k >= n_region:
+        mask[:] = True
+    elif k > 0:
+        mask[np.random.default_rng(int(seed)).permutation(n_region)[:k]] = True
+    return mask
+
+
+def border_distance(positions, edges, inside, limit):
+    """The distance along the mesh's edges from each vertex to the nearest vertex that is
+    not ``inside`` (0 there), for the border damping of a vertex-group region: relaxed over
+    all edges at once until nothing changes, up to ``limit`` (farther: ``limit``).
+    ``positions`` (N, 3), ``edges`` (E, 2), ``inside`` (N,) bool."""
+    positions = np.asarray(positions, np.float64)
+    edges = np.asarray(edges, np.int64).reshape(-1, 2)
+    inside = np.asarray(inside, bool)
+    d = np.where(inside, float(limit), 0.0)
+    if len(edges) == 0 or not inside.any():
+        return d
+    a, b = edges[:, 0], edges[:, 1]
+    length = np.linalg.norm(positions[a] - positions[b], axis=1)
+    for _ in range(len(positions)):  # converges in as many rounds as edges across ``limit``
+        new = d.copy()
+        np.minimum.at(new, a, d[b] + length)
+        np.minimum.at(new, b, d[a] + length)
+        new = np.where(inside, new, 0.0)
+        if np.array_equal(new, d):
+            break
+        d = new
+    return d
+
+
+@dataclass(frozen=True)
+class Layer:
+    """One layer's static data: its pattern ``kind``, the region's vertices ``verts`` (K,),
+    their local coordinates ``x``, ``y`` (K,) in the frame, their ``weight`` (K,) (damping
+    times the valid vertices), the frame's ``scale`` (a local height unit in the face's
+    units) and the region's edges ``edges`` (E, 2) with their ``rest_length`` (E,), for a
+    strength driven by the compression."""
+
+    kind: str
+    verts: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    weight: np.ndarray
+    scale: float
+    edges: np.ndarray
+    rest_length: np.ndarray
+
+
+def layer(kind, local, rest, edges, weight, fraction=1.0, seed=0, scale=1.0):
+    """A :class:`Layer` from the rest mesh's coordinates ``local`` (N, 3) in the frame, the
+    region's ``weight`` (N,) (its damping: 0 outside), the valid ``fraction`` and ``seed``."""
+    weight = np.asarray(weight, np.float64)
+    verts = np.flatnonzero(weight > 0.0)
+    w = weight[verts] * valid_vertices(len(verts), fraction, seed)
+    inside = np.zeros(len(weight), bool)
+    inside[verts] = True
+    edges = np.asarray(edges, np.int64).reshape(-1, 2)
+    e = edges[inside[edges[:, 0]] & inside[edges[:, 1]]]
+    rest = np.asarray(rest, np.float64)
+    length = np.linalg.norm(rest[e[:, 0]] - rest[e[:, 1]], axis=1)
+    local = np.asarray(local, np.float64)
+    return Layer(kind, verts, local[verts, 0], local[verts, 1], w, float(scale), e, length)
+
+
+def compression(lay, skin):
+    """The mean edge compression (Zhang 2005 eq. 9, stretch counted as 0) of the layer's
+    region on the skin (N, 3); 0 without edges."""
+    if len(lay.edges) == 0:
+        return 0.0
+    skin = np.asarray(skin, np.float64)
+    length = np.linalg.norm(skin[lay.edges[:, 0]] - skin[lay.edges[:, 1]], axis=1)
+    tau = np.maximum(edge_shrinkage(lay.rest_length, length), 0.0)
+    return float(np.mean(tau))
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The layers of a face and where they write: ``footprint`` (H,) sorted vertex ids, the
+    union of the regions, and per layer the positions of its vertices in it (``index``)."""
+
+    layers: tuple
+    footprint: np.ndarray
+    index: tuple
+
+
+def plan(layers):
+    layers = tuple(layers)
+    verts = [lay.verts for lay in layers]
+    footprint = np.unique(np.concatenate(verts)) if verts else np.zeros(0, np.int64)
+    return Plan(layers, footprint, tuple(np.searchsorted(footprint, v) for v in verts))
+
+
+def heights(pl, values):
+    """The summed height (H,) at the plan's footprint, for this frame's ``values``: per
+    layer ``(t, strength, alpha, beta, gamma)``; a strength of 0 skips the layer.  In the
+    face's units, along the skin normal."""
+    out = np.zeros(len(pl.footprint), np.float64)
+    for lay, idx, (t, strength, alpha, beta, gamma) in zip(pl.layers, pl.index, values):
+        if strength == 0.0 or len(idx) == 0:
+            continue
+        h = pattern(lay.kind, lay.x, lay.y, t, alpha, beta, gamma)
+        out[idx] += h * lay.weight * (strength * lay.scale)
+    return np.nan_to_num(out, nan=0.0, posinf=0.0, neginf=0.0)

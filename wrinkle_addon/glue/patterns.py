@@ -1,0 +1,268 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Pattern-function layers on a face: their frames (Empties), regions and static data for
+``core.patterns``, and what the operators do (add at the cursor or the selection, mirror,
+apply as a shape key)."""
+
+import bpy
+import numpy as np
+from mathutils import Matrix, Vector
+
+from ..core import patterns
+from . import meshio
+from .errors import WrinkleError
+
+COLLECTION_NAME = "Wrinkle Pattern Frames"
+# Per type: the frame's size (its scale: one unit of the pattern), the region's radius and
+# border, as fractions of the face's size, and the parameters that give a visible result
+# on a head of any size (a furrow 0.3-2 mm deep on a 25 cm head).
+KIND_DEFAULTS = {
+    "FOREHEAD": {"unit": 0.008, "radius": 0.16, "depth": -0.25},
+    "EYE_CORNER": {"unit": 0.06, "radius": 0.08, "depth": -0.03},
+    "CHEEK": {"unit": 0.03, "radius": 0.08, "depth": -0.04},
+    "FROWN": {"unit": 0.02, "radius": 0.05, "depth": -0.12},
+    "DIMPLE": {"unit": 0.04, "radius": 0.04, "depth": 0.11},
+    "EYE_POUCH": {"unit": 0.01, "radius": 0.06, "flatness": 16.0},
+}
+BORDER = 0.4  # the border's width as a fraction of the radius
+
+
+class PatternError(WrinkleError):
+    """Bad input for a pattern layer; the message is meant for the user."""
+
+
+def stack(face):
+    return face.ewrinkles_face.patterns
+
+
+def face_size(face):
+    rest = meshio.read_vectors(face.data, "position")
+    return float(np.ptp(rest, axis=0).max()) if len(rest) else 1.0
+
+
+def to_frame(face, frame_ob):
+    """The 4x4 matrix from the face's space to the frame's, and the length of one unit of the
+    frame's z in the face's units."""
+    m = np.array(frame_ob.matrix_world.inverted_safe() @ face.matrix_world, np.float64)
+    z = np.array(face.matrix_world.inverted_safe().to_3x3() @ frame_ob.matrix_world.col[2].xyz, np.float64)
+    return m, float(np.linalg.norm(z))
+
+
+def vertex_group_weights(face, name):
+    """The weights (N,) of the vertex group ``name`` (0 for vertices not in it).  Raises
+    PatternError."""
+    vg = face.vertex_groups.get(name) if name else None
+    if vg is None:
+        raise PatternError(f'"{face.name}" has no vertex group named "{name}"')
+    # Vertex group weights have no bulk accessor: one pass over the vertices.
+    pairs = [(v.index, g.weight) for v in face.data.vertices for g in v.groups if g.group == vg.index]
+    w = np.zeros(len(face.data.vertices))
+    if pairs:
+        arr = np.array(pairs, np.float64)
+        w[arr[:, 0].astype(np.int64)] = arr[:, 1]
+    if not (w > 0).any():
+        raise PatternError(f'The vertex group "{name}" of "{face.name}" is empty: assign vertices to it')
+    return w
+
+
+def build_layer(face, mesh, lay):
+    """The static data (``core.patterns.Layer``) of the layer settings ``lay`` on the face's
+    rest mesh ``mesh``.  Raises PatternError."""
+    if lay.frame is None or lay.frame.name not in bpy.context.scene.objects:
+        raise PatternError(f'The layer "{lay.name}" has lost its frame (the Empty was deleted): pick '
+                           "another Empty as its Frame")
+    m, scale = to_frame(face, lay.frame)
+    rest = np.asarray(mesh.rest, np.float64)
+    local = rest @ m[:3, :3].T + m[:3, 3]
+    if lay.region == "RADIUS":
+        if lay.radius <= 0.0:
+            raise PatternError(f'The layer "{lay.name}" has a radius of 0: it covers nothing')
+        centre = np.array(face.matrix_world.inverted_safe() @ lay.frame.matrix_world.translation, np.float64)
+        dist = np.linalg.norm(rest - centre, axis=1) * _face_unit(face)
+        weight = patterns.damping_radius(dist, lay.radius, lay.border)
+        if not (weight > 0).any():
+            raise PatternError(f'The layer "{lay.name}" covers no vertex: move its frame onto the skin or '
+                               "make its radius larger")
+    else:
+        w = vertex_group_weights(face, lay.vertex_group)
+        unit = _face_unit(face)
+        border = patterns.border_distance(rest * unit, mesh.edges, w > 0, lay.border)
+        weight = patterns.damping_border(border, lay.border, w)
+    return patterns.layer(lay.kind, local, rest, mesh.edges, weight, lay.fraction, lay.seed, scale)
+
+
+def _face_unit(face):
+    """Scene units per face unit (the face's scale; radius and border are scene lengths)."""
+    return float(np.cbrt(abs(np.linalg.det(np.array(face.matrix_world.to_3x3())))) or 1.0)
+
+
+def values(face, lay, scene, skin_compression=None):
+    """This frame's ``(t, strength, alpha, beta, gamma)`` of the layer ``lay``; the strength
+    driven by a shape key or a muscle here, by the compression in the source."""
+    spec = patterns.PATTERNS[lay.kind]
+    params = {p.key: getattr(lay, p.prop) for p in spec.params}
+    t = lay.time
+    if lay.follow_scene:
+        fps = scene.render.fps / (scene.render.fps_base or 1.0)
+        t += lay.speed * (scene.frame_current + scene.frame_subframe) / max(fps, 1e-6)
+    strength = lay.strength
+    if lay.drive == "SHAPE_KEY":
+        keys = face.data.shape_keys
+        block = keys.key_blocks.get(lay.drive_shape_key) if keys is not None else None
+        strength *= block.value if block is not None else 0.0
+    elif lay.drive == "MUSCLE":
+        m = lay.drive_muscle
+        strength *= m.ewrinkles_muscle.contraction if m is not None else 0.0
+    return (float(t), float(strength), float(params.get("alpha", 0.0)), float(params.get("beta", 0.0)),
+            float(params.get("gamma", 0.0)))
+
+
+# --------------------------------------------------------------------------- operators
+def _frame_collection(scene):
+    coll = bpy.data.collections.get(COLLECTION_NAME)
+    if coll is None:
+        coll = bpy.data.collections.new(COLLECTION_NAME)
+    if scene.user_of_id(coll) == 0:
+        scene.collection.children.link(coll)
+    return coll
+
+
+def surface_frame(face, point, normal, unit):
+    """A world matrix at ``point`` (face space) with z along ``normal`` (face space), y along
+    the face's up (its z) in the tangent plane, scaled to ``unit`` (scene units)."""
+    n = Vector(normal).normalized()
+    up = Vector((0.0, 0.0, 1.0))
+    y = up - up.dot(n) * n
+    if y.length < 1e-6:
+        y = Vector((0.0, 1.0, 0.0)) - n * n.y
+    y.normalize()
+    x = y.cross(n)
+    rot = Matrix((x, y, n)).transposed().to_4x4()
+    w = face.matrix_world
+    world_rot = (w.to_3x3().normalized() @ rot.to_3x3()).to_4x4()
+    world = Matrix.Translation(w @ Vector(point)) @ world_rot
+    return world @ Matrix.Diagonal((unit, unit, unit, 1.0))
+
+
+def nearest_on_skin(face, point_world):
+    """The closest point on the face's rest surface to ``point_world`` and its normal, both
+    in the face's space."""
+    from mathutils.bvhtree import BVHTree
+
+    me = face.data
+    bvh = BVHTree.FromPolygons([v.co for v in me.vertices], [p.vertices for p in me.polygons])
+    loc, normal, _i, _d = bvh.find_nearest(face.matrix_world.inverted_safe() @ Vector(point_world))
+    if loc is None:
+        raise PatternError(f'"{face.name}" has no faces to put a pattern on')
+    return loc, normal
+
+
+def selected_point(face):
+    """The centre and mean normal of the face's selected vertices (face space).  Raises
+    PatternError when none is selected."""
+    me = face.data
+    n = len(me.vertices)
+    sel = np.zeros(n, bool)
+    me.vertices.foreach_get("select", sel)
+    if not sel.any():
+        raise PatternError(f'No vertex of "{face.name}" is selected: select some in Edit Mode, or add '
+                           "the pattern at the 3D cursor")
+    co = meshio.read_vectors(me, "position")[sel].mean(axis=0)
+    normals = np.empty(n * 3, np.float32)
+    me.vertices.foreach_get("normal", normals)
+    normal = normals.reshape(-1, 3)[sel].mean(axis=0)
+    if np.linalg.norm(normal) < 1e-9:
+        raise PatternError("The selected vertices face every way: select a patch of skin")
+    return Vector(co.tolist()), Vector(normal.tolist())
+
+
+def add_layer(context, face, kind, point, normal):
+    """A new layer of ``kind`` with a new frame Empty on the skin at ``point`` (face space),
+    its z along ``normal``; sized for the face.  Returns the layer."""
+    d = KIND_DEFAULTS[kind]
+    size = face_size(face) * _face_unit(face)
+    ob = bpy.data.objects.new(f"{face.name} {kind.replace('_', ' ').title()} Frame", None)
+    ob.empty_display_type = "ARROWS"
+    _frame_collection(context.scene).objects.link(ob)
+    ob.matrix_world = surface_frame(face, point, normal, d["unit"] * size)
+    st = stack(face)
+    lay = st.layers.add()
+    lay.name = kind.replace("_", " ").title()
+    lay.kind = kind
+    lay.frame = ob
+    spec = patterns.PATTERNS[kind]
+    for p in spec.params:
+        setattr(lay, p.prop, d.get(p.prop, p.default))
+    lay.time, lay.follow_scene = spec.time, spec.runs
+    lay.radius = d["radius"] * size
+    lay.border = BORDER * lay.radius
+    st.active = len(st.layers) - 1
+    return lay
+
+
+def copy_layer(face, src, frame=None):
+    """A copy of the layer ``src`` at the end of the stack (sharing its frame, or ``frame``)."""
+    st = stack(face)
+    lay = st.layers.add()
+    for prop in src.bl_rna.properties:
+        if not prop.is_readonly and prop.identifier != "rna_type":
+            setattr(lay, prop.identifier, getattr(src, prop.identifier))
+    if frame is not None:
+        lay.frame = frame
+    st.active = len(st.layers) - 1
+    return lay
+
+
+def mirror_layer(context, face, src):
+    """A copy of ``src`` mirrored across the face's own x = 0 plane: a new frame Empty that is
+    the mirror image of the old one (its x scale negative), so the pattern is mirrored too."""
+    if src.frame is None:
+        raise PatternError(f'The layer "{src.name}" has no frame to mirror')
+    w = face.matrix_world
+    flip = Matrix.Diagonal((-1.0, 1.0, 1.0, 1.0))
+    ob = src.frame.copy()
+    ob.name = src.frame.name + " Mirrored"
+    _frame_collection(context.scene).objects.link(ob)
+    ob.matrix_world = w @ flip @ w.inverted_safe() @ src.frame.matrix_world
+    lay = copy_layer(face, src, ob)
+    lay.name = src.name + " Mirrored"
+    if lay.region == "GROUP":
+        other = _mirror_group_name(lay.vertex_group)
+        if other and face.vertex_groups.get(other) is not None:
+            lay.vertex_group = other
+    return lay
+
+
+def _mirror_group_name(name):
+    for a, b in ((".L", ".R"), ("_L", "_R"), ("Left", "Right"), (".l", ".r"), ("_l", "_r")):
+        if name.endswith(a):
+            return name[: -len(a)] + b
+        if name.endswith(b):
+            return name[: -len(b)] + a
+    return ""
+
+
+def apply_layer(context, face, index, mesh):
+    """Bake the layer ``index`` as it is on this frame into a new shape key at value 1 (its
+    heights along the rest normals), then remove it.  Returns the shape key."""
+    st = stack(face)
+    lay = st.layers[index]
+    static = build_layer(face, mesh, lay)
+    pl = patterns.plan([static])
+    h = patterns.heights(pl, [values(face, lay, context.scene)])
+    me = face.data
+    n = len(me.vertices)
+    normals = np.empty(n * 3, np.float32)
+    me.vertices.foreach_get("normal", normals)
+    normals = normals.reshape(-1, 3)
+    if me.shape_keys is None:
+        face.shape_key_add(name="Basis", from_mix=False)
+    key = face.shape_key_add(name=f"Pattern {lay.name}", from_mix=False)
+    co = np.empty(n * 3, np.float32)
+    key.data.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    co[pl.footprint] += (h[:, None] * normals[pl.footprint]).astype(np.float32)
+    key.data.foreach_set("co", co.ravel())
+    key.value = 1.0
+    st.layers.remove(index)
+    st.active = max(0, min(st.active, len(st.layers) - 1))
+    return key

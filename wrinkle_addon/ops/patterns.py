@@ -1,0 +1,158 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Operators on the pattern-function layers: add (at the 3D cursor or the selected
+vertices), remove, duplicate, move, mirror and apply as a shape key."""
+
+import bpy
+from bpy.props import EnumProperty
+
+from ..core.patterns import KINDS
+from ..glue import faces
+from ..glue import frame as pipeline
+from ..glue import patterns as glue
+from ..glue.registry import MeshArrays
+from ..glue.surface import Surface
+from .common import face_ok, face_poll, guarded
+
+
+def _active_layer(context):
+    face = faces.active(context)
+    st = face.ewrinkles_face.patterns
+    if not st.layers:
+        return face, st, None
+    return face, st, st.layers[min(st.active, len(st.layers) - 1)]
+
+
+class _LayerOperator:
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        if not face_ok(cls, context):
+            return False
+        if not faces.active(context).ewrinkles_face.patterns.layers:
+            cls.poll_message_set("The face has no pattern layers")
+            return False
+        return True
+
+
+class WRINKLE_OT_add_pattern(bpy.types.Operator):
+    """Add a pattern-function layer with a new frame Empty on the skin, at the 3D cursor or at
+    the selected vertices, turned to the skin's normal"""
+
+    bl_idname = "wrinkle.add_pattern"
+    bl_label = "Add Pattern"
+    bl_options = {"REGISTER", "UNDO"}
+
+    kind: EnumProperty(name="Type", description="Which pattern to add", items=KINDS, default="FOREHEAD")
+    where: EnumProperty(
+        name="Where", description="Where to put the pattern's frame",
+        items=(("CURSOR", "3D Cursor", "On the skin nearest the 3D cursor"),
+               ("SELECTED", "Selected Vertices", "At the centre of the face's selected vertices")),
+        default="CURSOR")
+
+    poll = face_poll()
+
+    @guarded
+    def execute(self, context):
+        face = faces.active(context)
+        if face.mode == "EDIT":
+            face.update_from_editmode()
+        if self.where == "SELECTED":
+            point, normal = glue.selected_point(face)
+        else:
+            point, normal = glue.nearest_on_skin(face, context.scene.cursor.location)
+        lay = glue.add_layer(context, face, self.kind, point, normal)
+        pipeline.refresh_all(context)
+        self.report({"INFO"}, f'Added the pattern "{lay.name}" to "{face.name}"')
+        return {"FINISHED"}
+
+
+class WRINKLE_OT_remove_pattern(_LayerOperator, bpy.types.Operator):
+    """Remove the active pattern layer (its frame Empty stays)"""
+
+    bl_idname = "wrinkle.remove_pattern"
+    bl_label = "Remove Pattern"
+
+    @guarded
+    def execute(self, context):
+        _face, st, _lay = _active_layer(context)
+        i = min(st.active, len(st.layers) - 1)
+        st.layers.remove(i)
+        st.active = max(0, i - 1)
+        pipeline.refresh_all(context)
+        return {"FINISHED"}
+
+
+class WRINKLE_OT_duplicate_pattern(_LayerOperator, bpy.types.Operator):
+    """Duplicate the active pattern layer (the copy shares its frame)"""
+
+    bl_idname = "wrinkle.duplicate_pattern"
+    bl_label = "Duplicate Pattern"
+
+    @guarded
+    def execute(self, context):
+        face, _st, lay = _active_layer(context)
+        glue.copy_layer(face, lay).name = lay.name + " Copy"
+        pipeline.refresh_all(context)
+        return {"FINISHED"}
+
+
+class WRINKLE_OT_move_pattern(_LayerOperator, bpy.types.Operator):
+    """Move the active pattern layer up or down the stack"""
+
+    bl_idname = "wrinkle.move_pattern"
+    bl_label = "Move Pattern"
+
+    direction: EnumProperty(name="Direction", description="Which way to move the layer",
+                            items=(("UP", "Up", "Toward the top of the stack"),
+                                   ("DOWN", "Down", "Toward the bottom of the stack")), default="UP")
+
+    @guarded
+    def execute(self, context):
+        _face, st, _lay = _active_layer(context)
+        i = min(st.active, len(st.layers) - 1)
+        j = i - 1 if self.direction == "UP" else i + 1
+        if 0 <= j < len(st.layers):
+            st.layers.move(i, j)
+            st.active = j
+        return {"FINISHED"}
+
+
+class WRINKLE_OT_mirror_pattern(_LayerOperator, bpy.types.Operator):
+    """Add a mirrored copy of the active pattern layer on the other side of the face (across
+    the face's own x = 0 plane), with a mirrored frame"""
+
+    bl_idname = "wrinkle.mirror_pattern"
+    bl_label = "Mirror Pattern"
+
+    @guarded
+    def execute(self, context):
+        face, _st, lay = _active_layer(context)
+        glue.mirror_layer(context, face, lay)
+        pipeline.refresh_all(context)
+        return {"FINISHED"}
+
+
+class WRINKLE_OT_apply_pattern(_LayerOperator, bpy.types.Operator):
+    """Apply the active pattern layer as it is on this frame: bake it into a new shape key at
+    value 1 and remove the layer"""
+
+    bl_idname = "wrinkle.apply_pattern"
+    bl_label = "Apply Pattern"
+
+    @guarded
+    def execute(self, context):
+        face, st, _lay = _active_layer(context)
+        if face.mode == "EDIT":
+            raise glue.PatternError("Leave Edit Mode to apply a pattern")
+        s = Surface(face, need_uv=False)
+        key = glue.apply_layer(context, face, min(st.active, len(st.layers) - 1),
+                               MeshArrays(s.rest, s.edges, s.tris))
+        pipeline.refresh_all(context)
+        self.report({"INFO"}, f'Applied as the shape key "{key.name}"')
+        return {"FINISHED"}
+
+
+classes = (WRINKLE_OT_add_pattern, WRINKLE_OT_remove_pattern, WRINKLE_OT_duplicate_pattern,
+           WRINKLE_OT_move_pattern, WRINKLE_OT_mirror_pattern, WRINKLE_OT_apply_pattern)
+register, unregister = bpy.utils.register_classes_factory(classes)

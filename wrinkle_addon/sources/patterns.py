@@ -1,0 +1,102 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Pattern-function layers ("Pattern functions and tears", §3) as a wrinkle source: each
+layer's pattern in the frame of its Empty, damped toward its region's border, summed along
+the skin normal with every other source, from ``core.patterns``."""
+
+import bpy
+import numpy as np
+
+from ..core import combine, patterns
+from ..glue import frame as frame_stage
+from ..glue import meshio
+from ..glue import patterns as glue
+from ..glue.registry import WrinkleSource
+from ..props.patterns import PatternStack
+from ..ui import patterns as patterns_ui
+
+
+class _Static:
+    __slots__ = ("plan", "layer_of", "footprint", "problem")
+
+    def __init__(self, layers=(), layer_of=(), problem=""):
+        self.plan = patterns.plan(layers)
+        self.layer_of = tuple(layer_of)  # the stack index of each built layer
+        self.footprint = combine.Footprint(height_verts=self.plan.footprint)
+        self.problem = problem
+
+
+def _frame_key(lay):
+    ob = lay.frame
+    return None if ob is None else (ob.name, tuple(map(tuple, ob.matrix_world)))
+
+
+class PatternSource(WrinkleSource):
+    name = "patterns"
+    label = "Pattern Functions"
+    geometric = True
+    properties = (("patterns", PatternStack),)
+
+    def active(self, face):
+        return len(face.ewrinkles_face.patterns.layers) > 0
+
+    def static_key(self, face, in_scene):
+        key = [tuple(map(tuple, face.matrix_world)), meshio.topology_key(face.data)]
+        for lay in face.ewrinkles_face.patterns.layers:
+            in_it = lay.frame is not None and lay.frame.session_uid in in_scene
+            key.append((lay.kind, _frame_key(lay), in_it, lay.region, lay.radius, lay.vertex_group,
+                        lay.border, lay.fraction, lay.seed))
+        return tuple(key)
+
+    def build(self, face, mesh, in_scene):
+        layers, index, problems = [], [], []
+        for i, lay in enumerate(face.ewrinkles_face.patterns.layers):
+            try:
+                layers.append(glue.build_layer(face, mesh, lay))
+                index.append(i)
+            except glue.PatternError as exc:
+                problems.append(str(exc))
+        return _Static(layers, index, "; ".join(problems))
+
+    def inputs(self, face, static):
+        st = face.ewrinkles_face.patterns.layers
+        scene = bpy.context.scene
+        render = frame_stage.render_frame()
+        out = []
+        for i in static.layer_of:
+            lay = st[i] if i < len(st) else None
+            if lay is None or not (lay.show_render if render else lay.show_viewport):
+                out.append((0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+                continue
+            full = lay.full_compression if lay.drive == "COMPRESSION" else 0.0
+            out.append(glue.values(face, lay, scene) + (full,))
+        return tuple(out)
+
+    def contribute(self, face, static, skin, inputs):
+        if len(static.plan.footprint) == 0:
+            return combine.Contribution()
+        vals = []
+        for lay, v in zip(static.plan.layers, inputs):
+            t, strength, a, b, g, full = v
+            if full > 0.0 and strength != 0.0:  # driven by the region's compression
+                strength *= min(patterns.compression(lay, skin) / full, 1.0)
+            vals.append((t, strength, a, b, g))
+        return combine.Contribution(height=patterns.heights(static.plan, vals).astype(np.float32))
+
+    def map_heights(self, face, mesh, skin, formed):
+        static = self.build(face, mesh, {o.session_uid for o in bpy.context.scene.objects})
+        if static.problem:
+            raise glue.PatternError(static.problem)
+        if len(static.plan.footprint) == 0:
+            return None
+        vals = self.inputs(face, static)
+        if formed:  # every layer at full strength: the map's zone weights animate it
+            vals = tuple(v[:1] + (1.0 if any(v) else 0.0,) + v[2:5] + (0.0,) for v in vals)
+        out = np.zeros(len(mesh.rest), np.float32)
+        out[static.plan.footprint] = self.contribute(face, static, skin, vals).height
+        return out
+
+    def problems(self, face, static):
+        return static.problem
+
+    def draw(self, layout, context, face):
+        patterns_ui.draw_face_patterns(layout, context, face)
