@@ -7,7 +7,9 @@ For each scene (the procedural head, the forehead patch, and, when
 forehead with wrinkle curves (Bando et al. 2002: three forehead lines raised by the brow
 raise; the row above shows the muscles' wrinkles of the same pose, Surprise) and the head
 again with generated wrinkle maps, and the back of a wrist with fine wrinkles (Bando et al.
-2002, Fig. 15: deeper where the bend folds the skin, fainter where it stretches)) it saves
+2002, Fig. 15: deeper where the bend folds the skin, fainter where it stretches), and pattern
+layers (crow's feet and dimples with the smile, frown furrows with the lowered brows; on the
+ICT head when it exists, else on the procedural head)) it saves
 the .blend, renders each expression frame twice -
 wrinkles off (the same deformation, no wrinkles) and on - and writes
 ``out/contact_sheet.png``: one row per scene, each expression as a without/with pair,
@@ -40,6 +42,7 @@ if addon_utils.enable("wrinkle_addon", default_set=True) is None:
 
 from sample_scenes import forehead_curves, forehead_patch, head, scanned_head, scanned_head_maps  # noqa: E402
 from sample_scenes import hand as hand_scene  # noqa: E402
+from sample_scenes import patterns as patterns_scene  # noqa: E402
 from sample_scenes.lib import labels, scene_setup  # noqa: E402
 
 _T0 = time.perf_counter()
@@ -149,6 +152,7 @@ def main(argv=None):
     else:
         log(f"skipping the ICT head: {scanned_head.DATA} not found")
     jobs.append(("hand", hand_scene.build, hand_scene.toggle))  # fine wrinkles (Bando 2002 Fig. 15)
+    jobs.append(("patterns", patterns_scene.build, patterns_scene.toggle))  # pattern functions
     rows, captions = [], []
     for i, (name, builder, toggle) in enumerate(jobs, 1):
         log(f"scene {i}/{len(jobs)}: {name}")

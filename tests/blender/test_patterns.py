@@ -242,3 +242,58 @@ def test_a_layer_hidden_in_renders_is_not_rendered(render_small, tmp_path):
             assert np.abs(heights(face)).max() > 1e-4  # the viewport shows it
     assert np.abs(px["hidden"] - px["none"]).max() < 1e-6
     assert np.abs(px["shown"] - px["none"]).max() > 0.05
+
+
+def test_mirroring_swaps_the_sides_of_the_driving_shape_key_and_group():
+    face = _face()
+    for name in ("eyeSquint_L", "eyeSquint_R"):
+        face.shape_key_add(name=name)
+    for name in ("Cheek.L", "Cheek.R"):
+        face.vertex_groups.new(name=name).add(list(range(len(face.data.vertices))), 1.0, "REPLACE")
+    lay = _add(face, "EYE_CORNER")
+    lay.drive, lay.drive_shape_key = "SHAPE_KEY", "eyeSquint_L"
+    lay.region, lay.vertex_group = "GROUP", "Cheek.L"
+    assert bpy.ops.wrinkle.mirror_pattern() == {"FINISHED"}
+    other = face.ewrinkles_face.patterns.layers[-1]
+    assert (other.drive_shape_key, other.vertex_group) == ("eyeSquint_R", "Cheek.R")
+    assert glue.mirror_name("Brow_L") == "Brow_R" and glue.mirror_name("Nose") == ""
+
+
+def test_layers_stay_off_the_eyelids_and_the_lips():
+    """With the landmarks placed, a crow's-feet layer at the eye corner and a dimple beside the
+    mouth fan over the eyelid and the lips in their frames, and leave them still."""
+    from sample_scenes import patterns as sample
+    from sample_scenes.lib import headgen, rigging, scene_setup
+    from wrinkle_addon.core import zones
+    from wrinkle_addon.glue.muscles import landmarks
+
+    data = headgen.make_head(12000)
+    face = scene_setup.mesh_object_from_arrays("Head", data["positions"], data["quads"], data["corner_uvs"])
+    rigging.wrinkle_face(face, data["landmarks"], refine=False)
+    face.ewrinkles_face.strength = 0.0  # the pattern layers alone
+    for r in face.ewrinkles_face.muscles:
+        r.object.ewrinkles_muscle.pull = 0.0
+    muscle = face.ewrinkles_face.muscles[0].object
+    drivers = {k: ("MUSCLE", muscle) for k in ("EYE_CORNER", "DIMPLE", "FROWN")}
+    sample.add_layers(face, data["landmarks"], drivers)
+    for lay in face.ewrinkles_face.patterns.layers:
+        lay.drive, lay.radius = "NONE", 3 * lay.radius  # reaching well over the lids and the lips
+    rest = np.array([v.co for v in face.data.vertices])
+    inside = zones.face_zones(rest, landmarks.landmark_positions(face)).inside
+    h = heights_of(face)
+    assert np.abs(h[~inside]).max() > 1e-4
+    assert np.abs(h[inside]).max() == 0.0
+
+
+def heights_of(face):
+    bpy.context.view_layer.update()
+    from wrinkle_addon.glue import frame
+
+    frame.update_scene(bpy.context.scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
+    bpy.context.view_layer.update()
+    ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    n = len(face.data.vertices)
+    pos, skin = np.empty(n * 3, np.float32), np.empty(n * 3, np.float32)
+    ev.attributes["position"].data.foreach_get("vector", pos)
+    ev.attributes["wrinkle_skin"].data.foreach_get("vector", skin)
+    return np.linalg.norm((pos - skin).reshape(-1, 3), axis=1)

@@ -10,6 +10,7 @@ from mathutils import Matrix, Vector
 from ..core import patterns
 from . import meshio
 from .errors import WrinkleError
+from .muscles import landmarks
 
 COLLECTION_NAME = "Wrinkle Pattern Frames"
 # Per type: the frame's size (its scale: one unit of the pattern), the region's radius and
@@ -17,7 +18,7 @@ COLLECTION_NAME = "Wrinkle Pattern Frames"
 # on a head of any size (a furrow 0.3-2 mm deep on a 25 cm head).
 KIND_DEFAULTS = {
     "FOREHEAD": {"unit": 0.008, "radius": 0.16, "depth": -0.25},
-    "EYE_CORNER": {"unit": 0.06, "radius": 0.08, "depth": -0.03},
+    "EYE_CORNER": {"unit": 0.06, "radius": 0.08, "depth": -0.05},
     "CHEEK": {"unit": 0.03, "radius": 0.08, "depth": -0.04},
     "FROWN": {"unit": 0.02, "radius": 0.05, "depth": -0.12},
     "DIMPLE": {"unit": 0.04, "radius": 0.04, "depth": 0.11},
@@ -87,6 +88,9 @@ def build_layer(face, mesh, lay):
         unit = _face_unit(face)
         border = patterns.border_distance(rest * unit, mesh.edges, w > 0, lay.border)
         weight = patterns.damping_border(border, lay.border, w)
+    keep = landmarks.keep_out(face, rest)  # with the landmarks placed: nothing on lids and lips
+    if keep is not None:
+        weight = weight * keep
     return patterns.layer(lay.kind, local, rest, mesh.edges, weight, lay.fraction, lay.seed, scale)
 
 
@@ -226,13 +230,18 @@ def mirror_layer(context, face, src):
     lay = copy_layer(face, src, ob)
     lay.name = src.name + " Mirrored"
     if lay.region == "GROUP":
-        other = _mirror_group_name(lay.vertex_group)
+        other = mirror_name(lay.vertex_group)
         if other and face.vertex_groups.get(other) is not None:
             lay.vertex_group = other
+    keys = face.data.shape_keys
+    other = mirror_name(lay.drive_shape_key)
+    if other and keys is not None and keys.key_blocks.get(other) is not None:
+        lay.drive_shape_key = other  # eyeSquint_L drives the left layer, eyeSquint_R the right
     return lay
 
 
-def _mirror_group_name(name):
+def mirror_name(name):
+    """The other side's name of ``name`` (``.L``/``.R``, ``_L``/``_R``, Left/Right), or ""."""
     for a, b in ((".L", ".R"), ("_L", "_R"), ("Left", "Right"), (".l", ".r"), ("_l", "_r")):
         if name.endswith(a):
             return name[: -len(a)] + b

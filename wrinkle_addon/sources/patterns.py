@@ -10,6 +10,7 @@ from ..core import combine, patterns
 from ..glue import frame as frame_stage
 from ..glue import meshio
 from ..glue import patterns as glue
+from ..glue.muscles import landmarks
 from ..glue.registry import WrinkleSource
 from ..props.patterns import PatternStack
 from ..ui import patterns as patterns_ui
@@ -40,7 +41,9 @@ class PatternSource(WrinkleSource):
         return len(face.ewrinkles_face.patterns.layers) > 0
 
     def static_key(self, face, in_scene):
-        key = [tuple(map(tuple, face.matrix_world)), meshio.topology_key(face.data)]
+        marks = landmarks.landmark_positions(face)
+        marks = None if marks is None else tuple(tuple(v) for v in marks.values())
+        key = [tuple(map(tuple, face.matrix_world)), meshio.topology_key(face.data), marks]
         for lay in face.ewrinkles_face.patterns.layers:
             in_it = lay.frame is not None and lay.frame.session_uid in in_scene
             key.append((lay.kind, _frame_key(lay), in_it, lay.region, lay.radius, lay.vertex_group,

@@ -1,0 +1,125 @@
+"""Sample scene: pattern-function layers on a head: crow's feet at both eye corners and a
+dimple on each cheek that come with the smile, and frown furrows that come with the lowered
+brows.  On the scanned ICT head (../shared/data/ict_head.npz, not shipped) the layers are
+driven by its ARKit shape keys (eyeSquint, mouthSmile, browDown); on the procedural head
+(``--head procedural``) by its muscles' contractions.  Only the pattern layers wrinkle the
+face here, so the renders show them alone.
+
+Run alone to save a .blend: ``python sample_scenes/patterns.py out/patterns.blend``.
+"""
+
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+from sample_scenes.lib import rigging, scene_setup  # noqa: E402
+
+DATA = ROOT.parent / "shared" / "data" / "ict_head.npz"
+SMILE = {"mouthSmile_L": 1.0, "mouthSmile_R": 1.0, "eyeSquint_L": 1.0, "eyeSquint_R": 1.0}
+FROWN = {"browDown_L": 1.0, "browDown_R": 1.0}
+SHOTS = {"Neutral": 1, "Smile": 20, "Frowning": 40}
+
+
+def available():
+    return DATA.exists()
+
+
+def places(lm):
+    """Where the layers go, in the face's space, from its landmarks (the character's left;
+    the right side is mirrored): the outer eye corner, the cheek beside the mouth corner, and
+    the root of the nose between the eyes for the frown (its furrows, along the hyperbolas
+    ``x y = const``, run up nearly vertically above it and converge on it)."""
+    eye, brow, mouth, g = (np.asarray(lm[k], float) for k in ("eye_L", "brow_outer_L", "mouth_corner_L",
+                                                               "glabella"))
+    half = abs(mouth[0] - g[0])  # half the mouth's width
+    return {
+        "EYE_CORNER": eye + np.array([0.8 * (brow[0] - eye[0]), 0.0, -0.1 * (brow[2] - eye[2])]),
+        "DIMPLE": mouth + np.array([0.45 * half, 0.0, 0.25 * half]),
+        "FROWN": np.array([g[0], g[1], 0.5 * (g[2] + eye[2])]),
+    }
+
+
+def add_layers(face, lm, drivers):
+    """The five layers; ``drivers``: type -> (drive, shape key or muscle) for the left side
+    and the middle."""
+    from mathutils import Vector
+
+    rigging.activate(face)
+    for kind, point in places(lm).items():
+        bpy.context.scene.cursor.location = face.matrix_world @ Vector(point.tolist())
+        assert bpy.ops.wrinkle.add_pattern(kind=kind, where="CURSOR") == {"FINISHED"}
+        lay = face.ewrinkles_face.patterns.layers[-1]
+        drive, what = drivers[kind]
+        lay.drive = drive
+        if drive == "SHAPE_KEY":
+            lay.drive_shape_key = what
+        else:
+            lay.drive_muscle = what
+        if kind != "FROWN":
+            assert bpy.ops.wrinkle.mirror_pattern() == {"FINISHED"}
+            if drive == "MUSCLE":
+                mirrored = face.ewrinkles_face.patterns.layers[-1]
+                other = bpy.data.objects.get(what.name[:-2] + ".R") if what.name.endswith(".L") else None
+                mirrored.drive_muscle = other or what
+
+
+def build_ict(view="front"):
+    from sample_scenes.lib import ict
+
+    scene = bpy.context.scene
+    data = ict.load_ict(DATA)
+    face = ict.ict_object(data, name="ICTHead")
+    scene_setup.add_portrait_rig(scene, face, view=view, frame_scale=1.35)
+    # the landmarks keep every layer off the eyelids and the lips; the muscles make none
+    rigging.wrinkle_face(face, data["landmarks"], wrinkles_only=True, refine=False)
+    face.ewrinkles_face.strength = 0.0
+    add_layers(face, data["landmarks"], {"EYE_CORNER": ("SHAPE_KEY", "eyeSquint_L"),
+                                         "DIMPLE": ("SHAPE_KEY", "mouthSmile_L"),
+                                         "FROWN": ("SHAPE_KEY", "browDown_L")})
+    rigging.key_shape_keys(face, {1: {}, 20: SMILE, 40: FROWN})
+    scene.frame_start, scene.frame_end = 1, 40
+    return face, SHOTS
+
+
+def build_procedural(view="front"):
+    from sample_scenes.lib import headgen
+
+    scene = bpy.context.scene
+    head = headgen.make_head(40000)
+    face = scene_setup.mesh_object_from_arrays("Head", head["positions"], head["quads"], head["corner_uvs"])
+    scene_setup.add_portrait_rig(scene, face, view=view, frame_scale=1.35)
+    rigging.wrinkle_face(face, head["landmarks"])
+    face.ewrinkles_face.strength = 0.0  # the muscles pull, their own wrinkles stay off
+    muscles = {m.ewrinkles_muscle.role + "." + m.name[-1]: m for m in
+               (r.object for r in face.ewrinkles_face.muscles) if m is not None}
+    add_layers(face, head["landmarks"], {"EYE_CORNER": ("MUSCLE", muscles["ZYGOMATICUS_MAJOR.L"]),
+                                         "DIMPLE": ("MUSCLE", muscles["ZYGOMATICUS_MAJOR.L"]),
+                                         "FROWN": ("MUSCLE", muscles["CORRUGATOR.L"])})
+    rigging.key_expressions(face, {1: "NEUTRAL", 40: "FROWN"})
+    scene.frame_set(20)
+    for m in muscles.values():  # the smile: both Zygomaticus Major, keyed as a preset is
+        m.ewrinkles_muscle.contraction = 1.0 if m.ewrinkles_muscle.role == "ZYGOMATICUS_MAJOR" else 0.0
+        m.keyframe_insert("ewrinkles_muscle.contraction", frame=20)
+    scene.frame_start, scene.frame_end = 1, 40
+    return face, SHOTS
+
+
+def build(view="front", head="ict"):
+    return build_ict(view) if head == "ict" and available() else build_procedural(view)
+
+
+def toggle(face, on):
+    """The demo's without / with switch: every pattern layer shown in renders, or none."""
+    for lay in face.ewrinkles_face.patterns.layers:
+        if lay.show_render != on:
+            lay.show_render = on
+
+
+if __name__ == "__main__":
+    rigging.save_standalone(build, "patterns.blend")
