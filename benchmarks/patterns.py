@@ -1,0 +1,155 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Pattern-function layers: what 10 layers add to a frame of a 50k-vertex face.
+
+Run:  .venv45/bin/python benchmarks/patterns.py   (or .venv52)
+      options: --verts 50000  --layers 10  --frames 40  --warm 5  --repeats 6
+
+Prints one JSON line, ``{"patterns_frame_ms": ..., "patterns": {...}}``:
+
+``patterns_frame_ms``
+    What ``--layers`` (10) pattern layers add to a frame on top of the output stage, on the
+    face and rig of ``benchmarks/frame_update.py`` (``Bench.build``: headgen's head with its
+    UV map, the BrowsUp shape key and the jaw bone, ``--rig light``) with Enable Wrinkles.
+    The layers, added by the add-on's own operator at the 3D cursor on the skin, each of
+    its default size: a forehead, two eye corners, two cheeks, a frown, two dimples and two
+    eye pouches, every one running with the scene (Time follows the frame, so each frame
+    computes every layer again; the eye corners and the dimples are switched to run too).
+    Two configurations of that scene, in blocks interleaved none, layers, then layers,
+    none, ...: *none*, every layer hidden in the viewport (the source is active and the
+    stage runs, with nothing to add), and *layers*, all shown.  Each block times
+    ``Bench.frame_loop`` (frame_set + evaluated depsgraph + reading the positions, the
+    add-on's frame handler in, the viewport's in-place path) over ``--frames`` new frames
+    after ``--warm`` warm-up frames.  ``patterns_frame_ms`` is the median over the repeats of
+    (median frame of the layers block - median frame of the none block next to it).
+``patterns``
+    The detail: the footprint (vertices raised by any layer), the layers' region sizes, both
+    pooled medians, the per-repeat figures, the largest height after the layers blocks and
+    after the none blocks (0), and ``heights_ms``: ``core.patterns.heights`` alone for all
+    the layers (the median over the timed frames' values).
+    ``shedding_tears``: 0 - the shedding tears are not built yet, so the issue's "10 pattern
+    layers and 2 shedding tears" is measured without the tears.
+"""
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+for p in (ROOT, ROOT / "benchmarks"):
+    if str(p) not in sys.path:
+        sys.path.insert(0, str(p))
+
+import numpy as np  # noqa: E402
+
+KINDS = ("FOREHEAD", "EYE_CORNER", "EYE_CORNER", "CHEEK", "CHEEK", "FROWN", "DIMPLE", "DIMPLE",
+         "EYE_POUCH", "EYE_POUCH")
+
+
+def log(msg):
+    print(f"[patterns] {msg}", file=sys.stderr, flush=True)
+
+
+def places(lm):
+    """A point on the face (its space) for each of the ten layers, from the bench landmarks."""
+    g, eye, brow = lm["glabella"], lm["eye_L"], lm["brow_outer_L"]
+    mouth, cheek, hair = lm["mouth_corner_L"], lm["cheekbone_L"], lm["hairline_center"]
+
+    def mirror(p):
+        q = np.array(p, float)
+        q[0] = 2 * g[0] - q[0]
+        return q
+
+    corner = eye + np.array([0.8 * (brow[0] - eye[0]), 0.0, 0.0])
+    dimple = mouth + np.array([0.45 * abs(mouth[0] - g[0]), 0.0, 0.0])
+    pouch = eye + np.array([0.0, 0.0, -0.5 * (brow[2] - eye[2])])
+    return [0.5 * (g + hair), corner, mirror(corner), cheek, mirror(cheek), g, dimple, mirror(dimple),
+            pouch, mirror(pouch)]
+
+
+def main(argv=None):
+    import bpy
+    from mathutils import Vector
+
+    import frame_update as fu  # bpy, the add-on enabled; its Bench builds and times the face
+    from wrinkle_addon.core import patterns as core
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--verts", type=int, default=50000)
+    ap.add_argument("--layers", type=int, default=10, help="up to 10")
+    ap.add_argument("--frames", type=int, default=40)
+    ap.add_argument("--warm", type=int, default=5)
+    ap.add_argument("--repeats", type=int, default=6)
+    args = ap.parse_args(argv)
+    fu.bs.clear_scene()
+    fu.pipeline._cache.clear()
+    bench = fu.Bench(args.verts, args.warm, args.frames, "light", args.repeats)
+    bench.build()
+    face = bench.ob
+    vl = bpy.context.view_layer
+    for o in vl.objects:
+        o.select_set(False)
+    face.select_set(True)
+    vl.objects.active = face
+    assert bpy.ops.wrinkle.enable() == {"FINISHED"}
+    for kind, point in list(zip(KINDS, places(bench.landmarks)))[: args.layers]:
+        bpy.context.scene.cursor.location = face.matrix_world @ Vector(point.tolist())
+        if bpy.ops.wrinkle.add_pattern(kind=kind, where="CURSOR") != {"FINISHED"}:
+            raise RuntimeError(f"Add Pattern {kind} failed")
+    layers = face.ewrinkles_face.patterns.layers
+    for lay in layers:
+        lay.follow_scene = True  # every layer computed again on every frame
+
+    def show(on):
+        for lay in layers:
+            if lay.show_viewport != on:
+                lay.show_viewport = on
+
+    show(True)
+    bench.frame_loop(bench.warm)
+    state = fu.pipeline._cache[face.session_uid]
+    static = state.statics["patterns"][1]
+    if static.problem or len(static.plan.layers) != len(layers):
+        raise RuntimeError(f"the layers did not all build: {static.problem}")
+    detail = {"verts": bench.n, "layers": len(layers), "footprint_verts": int(len(static.plan.footprint)),
+              "region_verts": [int(len(lay.verts)) for lay in static.plan.layers], "shedding_tears": 0}
+    from wrinkle_addon.glue import registry
+
+    src = next(s for s in registry.sources() if s.name == "patterns")
+    values = [v[:5] for v in src.inputs(face, static)]
+    ht = []
+    for _ in range(50):
+        t = time.perf_counter()
+        core.heights(static.plan, values)
+        ht.append(time.perf_counter() - t)
+    detail["heights_ms"] = fu.ms(ht)
+    times = {"none": [], "layers": []}
+    peak = {"none": [], "layers": []}
+    for rep in range(args.repeats):
+        for config in (("none", "layers") if rep % 2 == 0 else ("layers", "none")):
+            show(config == "layers")
+            bench.frame_loop(bench.warm)
+            times[config].append(bench.frame_loop(bench.frames))
+            bench.frame_loop(bench.frames[:3], lambda _ev, c=config: peak[c].append(
+                float(np.abs(fu.pipeline._cache[face.session_uid].out).max())))
+        log(f"repeat {rep + 1}/{args.repeats}: none {fu.ms(times['none'][-1]):.2f} ms, "
+            f"layers {fu.ms(times['layers'][-1]):.2f} ms")
+    med = {c: [fu.ms(b) for b in blocks] for c, blocks in times.items()}
+    cost = [a - b for a, b in zip(med["layers"], med["none"])]
+    detail.update({"frame_ms": fu.ms([x for b in times["layers"] for x in b]),
+                   "base_frame_ms": fu.ms([x for b in times["none"] for x in b]),
+                   "max_height_mm": max(peak["layers"]) * 1000.0, "max_height_none_mm": max(peak["none"]) * 1000.0,
+                   "per_repeat": {"layers_ms": med["layers"], "none_ms": med["none"], "cost_ms": cost},
+                   "bpy": bpy.app.version_string})
+    if not detail["max_height_mm"] > 0.0 or detail["max_height_none_mm"] != 0.0:
+        raise RuntimeError("the layers blocks raised nothing, or the none blocks did")
+    result = fu.median_or_none(cost)
+    log(f"patterns_frame_ms {result:.3f}; heights alone {detail['heights_ms']:.3f} ms; footprint "
+        f"{detail['footprint_verts']} verts")
+    print(json.dumps({"patterns_frame_ms": fu.clean(result), "patterns": fu.clean(detail)}), flush=True)
+    bpy.ops.wm.read_factory_settings(use_empty=True)  # bpy 4.5 hangs at exit otherwise
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
