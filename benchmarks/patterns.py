@@ -70,9 +70,9 @@ def places(lm):
 
 def main(argv=None):
     import bpy
+    import frame_update as fu  # bpy, the add-on enabled; its Bench builds and times the face
     from mathutils import Vector
 
-    import frame_update as fu  # bpy, the add-on enabled; its Bench builds and times the face
     from wrinkle_addon.core import patterns as core
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -139,7 +139,8 @@ def main(argv=None):
     cost = [a - b for a, b in zip(med["layers"], med["none"])]
     detail.update({"frame_ms": fu.ms([x for b in times["layers"] for x in b]),
                    "base_frame_ms": fu.ms([x for b in times["none"] for x in b]),
-                   "max_height_mm": max(peak["layers"]) * 1000.0, "max_height_none_mm": max(peak["none"]) * 1000.0,
+                   "max_height_mm": max(peak["layers"]) * 1000.0,
+                   "max_height_none_mm": max(peak["none"]) * 1000.0,
                    "per_repeat": {"layers_ms": med["layers"], "none_ms": med["none"], "cost_ms": cost},
                    "bpy": bpy.app.version_string})
     if not detail["max_height_mm"] > 0.0 or detail["max_height_none_mm"] != 0.0:
