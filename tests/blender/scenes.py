@@ -1,5 +1,7 @@
 """Small scenes for the Blender tests, built with the add-on's own operators."""
 
+from pathlib import Path
+
 import bpy
 import numpy as np
 
@@ -145,3 +147,21 @@ def animated_render_scene(last_frame):
     setup_cycles(scene)
     scene.frame_start, scene.frame_end = 1, last_frame
     return scene, face
+
+
+def run_on_farm(script_text, blend, out):
+    """Run ``script_text`` (it gets ``blend`` and ``out`` as its last two arguments) in a fresh
+    interpreter with no add-on installed and no ``PYTHONPATH``: a render farm's Blender.
+    Fails the test with the output when it does not succeed."""
+    import os
+    import subprocess
+    import sys
+
+    out = Path(out)
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(out / "farm_user"))
+    env.pop("PYTHONPATH", None)
+    script = out / "farm.py"
+    script.write_text(script_text)
+    run = subprocess.run([sys.executable, str(script), str(blend), str(out)], env=env,
+                         cwd=str(out), capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]

@@ -1,9 +1,6 @@
 """Farm-safe bake: the baked file renders identically with no add-on installed."""
 
 import json
-import os
-import subprocess
-import sys
 import textwrap
 
 import bpy
@@ -55,13 +52,7 @@ def test_bake_renders_without_the_addon(tmp_path):
     assert face.hide_render and face.ewrinkles_face.bake_object.name == "Face Baked"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
 
-    env = dict(os.environ, BLENDER_USER_RESOURCES=str(tmp_path / "farm_user"))
-    env.pop("PYTHONPATH", None)
-    script = tmp_path / "farm.py"
-    script.write_text(FARM_SCRIPT)
-    run = subprocess.run([sys.executable, str(script), str(blend), str(tmp_path)], env=env,
-                         cwd=str(tmp_path), capture_output=True, text=True, timeout=300)
-    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+    scenes.run_on_farm(FARM_SCRIPT, blend, tmp_path)
     farm = json.loads((tmp_path / "positions.json").read_text())
     for f in (1, 2, 3):
         got = np.array(farm[str(f)], np.float32).reshape(-1, 3)

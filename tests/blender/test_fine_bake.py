@@ -2,9 +2,6 @@
 sequence, so a farm with no add-on renders the fine wrinkles as the live face does."""
 
 import json
-import os
-import subprocess
-import sys
 import textwrap
 
 import bpy
@@ -100,14 +97,7 @@ def test_fine_wrinkles_render_on_a_farm_as_they_do_live(tmp_path):
     assert bpy.ops.wrinkle.bake() == {"FINISHED"}
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "shot.blend"))
 
-    env = dict(os.environ, BLENDER_USER_RESOURCES=str(tmp_path / "farm_user"))
-    env.pop("PYTHONPATH", None)
-    script = tmp_path / "farm.py"
-    script.write_text(FARM_SCRIPT)
-    blend = tmp_path / "shot.blend"
-    run = subprocess.run([sys.executable, str(script), str(blend), str(tmp_path)], env=env,
-                         cwd=str(tmp_path), capture_output=True, text=True, timeout=300)
-    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+    scenes.run_on_farm(FARM_SCRIPT, tmp_path / "shot.blend", tmp_path)
     assert json.loads((tmp_path / "done.json").read_text())["ok"]
     for f in (1, 3):
         img = scenes.load_png(tmp_path / f"farm_{f:04d}.png")
