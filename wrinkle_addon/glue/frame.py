@@ -203,10 +203,10 @@ def _contributions(ob, active, statics, skin, inputs):
     and shrinkage see the pulled skin.  Heights never feed back: every source reads the
     skin before any wrinkle."""
     out, deformed = [], skin
-    for s, frame_in in zip(active, inputs):
+    for i, (s, frame_in) in enumerate(zip(active, inputs)):
         c = s.contribute(ob, statics[s.name], deformed, frame_in)
         out.append(c)
-        if s.geometric and c.offset is not None and len(c.offset):
+        if i + 1 < len(active) and s.geometric and c.offset is not None and len(c.offset):
             if deformed is skin:
                 deformed = skin.copy()
             deformed[statics[s.name].footprint.offset_verts] += c.offset.T
