@@ -3,7 +3,8 @@ dimple on each cheek that come with the smile, and frown furrows that come with 
 brows.  On the scanned ICT head (../shared/data/ict_head.npz, not shipped) the layers are
 driven by its ARKit shape keys (eyeSquint, mouthSmile, browDown); on the procedural head
 (``--head procedural``) by its muscles' contractions.  Only the pattern layers wrinkle the
-face here, so the renders show them alone.
+face here, so the renders show them alone.  A dripping tear forms at the chin on frame 30
+and is falling on frame 40.
 
 Run alone to save a .blend: ``python sample_scenes/patterns.py out/patterns.blend``.
 """
@@ -69,6 +70,18 @@ def add_layers(face, lm, drivers):
                 mirrored.drive_muscle = other or what
 
 
+def add_tear(face, lm, frame):
+    """A dripping tear that forms at the chin on ``frame`` and falls once (a drop that ran
+    down the cheek and drips off; one formed under the eye would fall into the cheek)."""
+    from mathutils import Vector
+
+    scene = bpy.context.scene
+    scene.frame_set(frame)
+    scene.cursor.location = face.matrix_world @ Vector(np.asarray(lm["chin"], float).tolist())
+    rigging.activate(face)
+    assert bpy.ops.wrinkle.add_teardrop(every=60.0, lasts=3.0) == {"FINISHED"}
+
+
 def build_ict(view="front"):
     from sample_scenes.lib import ict
 
@@ -83,6 +96,7 @@ def build_ict(view="front"):
                                          "DIMPLE": ("SHAPE_KEY", "mouthSmile_L"),
                                          "FROWN": ("SHAPE_KEY", "browDown_L")})
     rigging.key_shape_keys(face, {1: {}, 20: SMILE, 40: FROWN})
+    add_tear(face, data["landmarks"], 30)
     scene.frame_start, scene.frame_end = 1, 40
     return face, SHOTS
 
@@ -106,6 +120,7 @@ def build_procedural(view="front"):
     for m in muscles.values():  # the smile: both Zygomaticus Major, keyed as a preset is
         m.ewrinkles_muscle.contraction = 1.0 if m.ewrinkles_muscle.role == "ZYGOMATICUS_MAJOR" else 0.0
         m.keyframe_insert("ewrinkles_muscle.contraction", frame=20)
+    add_tear(face, head["landmarks"], 30)
     scene.frame_start, scene.frame_end = 1, 40
     return face, SHOTS
 

@@ -3,10 +3,10 @@
 vertices), remove, duplicate, move, mirror and apply as a shape key."""
 
 import bpy
-from bpy.props import EnumProperty
+from bpy.props import EnumProperty, FloatProperty
 
 from ..core.patterns import KINDS
-from ..glue import faces
+from ..glue import faces, tears
 from ..glue import frame as pipeline
 from ..glue import patterns as glue
 from ..glue.registry import MeshArrays
@@ -153,6 +153,53 @@ class WRINKLE_OT_apply_pattern(_LayerOperator, bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (WRINKLE_OT_add_pattern, WRINKLE_OT_remove_pattern, WRINKLE_OT_duplicate_pattern,
-           WRINKLE_OT_move_pattern, WRINKLE_OT_mirror_pattern, WRINKLE_OT_apply_pattern)
+class WRINKLE_OT_add_teardrop(bpy.types.Operator):
+    """Add a dripping tear: a teardrop that forms at the 3D cursor (or the selected vertices,
+    such as the lower eyelid), changes shape as it falls, and falls again every few seconds"""
+
+    bl_idname = "wrinkle.add_teardrop"
+    bl_label = "Add Teardrop"
+    bl_options = {"REGISTER", "UNDO"}
+
+    where: EnumProperty(
+        name="Where", description="Where the drop forms",
+        items=(("CURSOR", "3D Cursor", "On the skin nearest the 3D cursor"),
+               ("SELECTED", "Selected Vertices", "At the centre of the face's selected vertices")),
+        default="CURSOR")
+    width: FloatProperty(name="Width", description="The drop's size across, as a fraction of the face's "
+                         "size", default=0.01, min=0.0001, soft_max=0.05, subtype="FACTOR")
+    every: FloatProperty(name="Every", description="How often a new drop falls, in seconds", default=2.0,
+                         min=0.05, soft_max=20.0, subtype="TIME_ABSOLUTE", unit="TIME_ABSOLUTE")
+    lasts: FloatProperty(name="Lasts", description="How long each drop shows, in seconds", default=1.2,
+                         min=0.0, soft_max=20.0, subtype="TIME_ABSOLUTE", unit="TIME_ABSOLUTE")
+
+    poll = face_poll()
+
+    @guarded
+    def execute(self, context):
+        face = faces.active(context)
+        if face.mode == "EDIT":
+            face.update_from_editmode()
+        if self.where == "SELECTED":
+            point, normal = glue.selected_point(face)
+        else:
+            point, normal = glue.nearest_on_skin(face, context.scene.cursor.location)
+        size = glue.face_size(face) * glue.face_unit(face)
+        # the drop forms on the skin, not in it: its widest radius is about 1.5 Width out
+        out = (face.matrix_world.to_3x3() @ normal).normalized() * (tears.REACH * self.width * size)
+        ob = tears.add_teardrop(context, face, face.matrix_world @ point + out, Width=self.width * size,
+                                Length=0.64 * self.width * size, Speed=8.0 * self.width * size,
+                                Start=(context.scene.frame_current - 1) / _fps(context.scene),
+                                Every=self.every, Lasts=self.lasts)
+        self.report({"INFO"}, f'Added "{ob.name}": its size, speed and timing are in its Teardrop modifier')
+        return {"FINISHED"}
+
+
+def _fps(scene):
+    return scene.render.fps / (scene.render.fps_base or 1.0)
+
+
+classes = (WRINKLE_OT_add_teardrop, WRINKLE_OT_add_pattern, WRINKLE_OT_remove_pattern,
+           WRINKLE_OT_duplicate_pattern, WRINKLE_OT_move_pattern, WRINKLE_OT_mirror_pattern,
+           WRINKLE_OT_apply_pattern)
 register, unregister = bpy.utils.register_classes_factory(classes)
