@@ -78,14 +78,14 @@ def build_layer(face, mesh, lay):
         if lay.radius <= 0.0:
             raise PatternError(f'The layer "{lay.name}" has a radius of 0: it covers nothing')
         centre = np.array(face.matrix_world.inverted_safe() @ lay.frame.matrix_world.translation, np.float64)
-        dist = np.linalg.norm(rest - centre, axis=1) * _face_unit(face)
+        dist = np.linalg.norm(rest - centre, axis=1) * face_unit(face)
         weight = patterns.damping_radius(dist, lay.radius, lay.border)
         if not (weight > 0).any():
             raise PatternError(f'The layer "{lay.name}" covers no vertex: move its frame onto the skin or '
                                "make its radius larger")
     else:
         w = vertex_group_weights(face, lay.vertex_group)
-        unit = _face_unit(face)
+        unit = face_unit(face)
         border = patterns.border_distance(rest * unit, mesh.edges, w > 0, lay.border)
         weight = patterns.damping_border(border, lay.border, w)
     keep = landmarks.keep_out(face, rest)  # with the landmarks placed: nothing on lids and lips
@@ -94,7 +94,7 @@ def build_layer(face, mesh, lay):
     return patterns.layer(lay.kind, local, rest, mesh.edges, weight, lay.fraction, lay.seed, scale)
 
 
-def _face_unit(face):
+def face_unit(face):
     """Scene units per face unit (the face's scale; radius and border are scene lengths)."""
     return float(np.cbrt(abs(np.linalg.det(np.array(face.matrix_world.to_3x3())))) or 1.0)
 
@@ -183,7 +183,7 @@ def add_layer(context, face, kind, point, normal):
     """A new layer of ``kind`` with a new frame Empty on the skin at ``point`` (face space),
     its z along ``normal``; sized for the face.  Returns the layer."""
     d = KIND_DEFAULTS[kind]
-    size = face_size(face) * _face_unit(face)
+    size = face_size(face) * face_unit(face)
     ob = bpy.data.objects.new(f"{face.name} {kind.replace('_', ' ').title()} Frame", None)
     ob.empty_display_type = "ARROWS"
     _frame_collection(context.scene).objects.link(ob)
