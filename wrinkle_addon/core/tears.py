@@ -46,3 +46,40 @@ def age(seconds, start, period, lifetime):
         return None
     tau = (seconds - start) % period
     return tau if tau < lifetime else None
+
+
+# --------------------------------------------------------------------------- shedding tears
+def revealed(tau, start, speed):
+    """How far along its path a shedding tear has run ``tau`` seconds after it started: the
+    paper's ``h = s + c t`` (step five) with ``s`` = ``start`` (the length shown at once) and
+    ``c`` = ``speed``; never below 0.  Monotone in ``tau`` for ``speed >= 0``."""
+    return np.maximum(float(start) + float(speed) * np.asarray(tau, np.float64), 0.0)
+
+
+def reveal_profile(arc, length, head):
+    """The tear's thickness factor along its path (arc length ``arc``, (n,)) when it has run
+    ``length``: 1 behind its head, falling to 0 at the front over the rounded ``head`` (C¹,
+    ``1 - smoothstep``), 0 ahead of it."""
+    a = np.asarray(arc, np.float64)
+    head = max(float(head), 1e-12)
+    x = np.clip((a - (float(length) - head)) / head, 0.0, 1.0)
+    return 1.0 - x * x * (3.0 - 2.0 * x)
+
+
+def rise_noise(coords, fraction, amplitude, seed, eps, degree=1):
+    """The paper's roughness of the tear's top surface (step four): at a seeded random
+    ``fraction`` of the points ``coords`` (n, 2) (the top surface's parameters, in scene
+    units) a bump of height up to ``amplitude`` is raised, the rest stay 0, and the moving
+    least squares fit (:func:`..mls.fit`, weight ``1 / (r^2 + eps^2)``) smooths them.  The
+    noise only rises (clipped at 0): the tear never sinks into the skin."""
+    from . import mls
+
+    c = np.asarray(coords, np.float64).reshape(-1, 2)
+    rng = np.random.default_rng(int(seed))
+    bumps = np.zeros(len(c))
+    k = int(round(np.clip(fraction, 0.0, 1.0) * len(c)))
+    if k == 0 or amplitude <= 0 or len(c) < 3:
+        return bumps
+    pick = rng.permutation(len(c))[:k]
+    bumps[pick] = rng.uniform(0.0, float(amplitude), k)
+    return np.maximum(mls.fit(c, bumps, c, degree=degree, eps=eps), 0.0)
