@@ -83,3 +83,56 @@ def rise_noise(coords, fraction, amplitude, seed, eps, degree=1):
     pick = rng.permutation(len(c))[:k]
     bumps[pick] = rng.uniform(0.0, float(amplitude), k)
     return np.maximum(mls.fit(c, bumps, c, degree=degree, eps=eps), 0.0)
+
+
+def strip(path, normals, half_width, n_across):
+    """A shedding tear's base surface (step one): a band ``2 half_width`` wide along a path
+    on the skin, ``path`` (k, 3) samples with the skin's unit ``normals`` (k, 3) there, the
+    band across in the skin's tangent plane (normal x tangent).  Returns ``(positions
+    (k n, 3), arc (k n,), across (k n,) in [-1, 1])``, row by row along the path.  The
+    caller snaps the positions back onto a curved skin."""
+    p = np.asarray(path, np.float64).reshape(-1, 3)
+    n = np.asarray(normals, np.float64).reshape(-1, 3)
+    if len(p) < 2:
+        raise ValueError("a tear's path needs at least two points")
+    seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    if not (seg > 0).all():
+        raise ValueError("a tear's path has repeated points")
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
+    tangent = np.gradient(p, arc, axis=0)
+    side = np.cross(n, tangent)
+    side /= np.maximum(np.linalg.norm(side, axis=1, keepdims=True), 1e-300)
+    w = np.linspace(-1.0, 1.0, int(n_across))
+    pos = p[:, None, :] + (half_width * w)[None, :, None] * side[:, None, :]
+    return pos.reshape(-1, 3), np.repeat(arc, len(w)), np.tile(w, len(p))
+
+
+def shell(base, normals, across, k, thickness, gap, rise=None, factor=None):
+    """The closed tear (step two): a bottom sheet ``gap`` above the base surface ``base``
+    (k rows of n points, :func:`strip`) along the skin's ``normals`` (k n, 3), and a top
+    ``(thickness factor + rise) sqrt(1 - w^2)`` above it (a lens across the tear, meeting the
+    bottom at both sides; ``factor`` (k n,) the reveal and end taper in [0, 1], ``rise``
+    (k n,) >= 0 the roughness).  Where the top meets the bottom (the sides, and every
+    point of zero thickness) the two share one vertex, so the surface is closed and has no
+    zero-thickness sliver.  Returns ``(positions (V, 3), quads (F, 4))``, the bottom's
+    faces turned toward the skin, the top's away from it."""
+    base = np.asarray(base, np.float64).reshape(-1, 3)
+    nrm = np.asarray(normals, np.float64).reshape(-1, 3)
+    w = np.asarray(across, np.float64).reshape(-1)
+    k = int(k)
+    n = len(base) // k
+    f = np.ones(len(base)) if factor is None else np.clip(np.asarray(factor, np.float64), 0.0, 1.0)
+    r = np.zeros(len(base)) if rise is None else np.maximum(np.asarray(rise, np.float64), 0.0)
+    lens = np.sqrt(np.clip(1.0 - w * w, 0.0, 1.0))  # 0 at both sides: the top meets the bottom
+    height = (float(thickness) * f + r * (f > 0)) * lens
+    bottom = base + float(gap) * nrm
+    top = bottom + height[:, None] * nrm
+    shared = height <= 0.0
+    top_index = np.where(shared, np.arange(len(base)), len(base) + np.cumsum(~shared) - 1)
+    positions = np.concatenate([bottom, top[~shared]])
+    g = np.arange(len(base)).reshape(k, n)
+    a, b, c, d = g[:-1, :-1].ravel(), g[:-1, 1:].ravel(), g[1:, 1:].ravel(), g[1:, :-1].ravel()
+    down = np.stack([a, d, c, b], 1)  # toward the skin
+    up = top_index[np.stack([a, b, c, d], 1)]
+    keep = ~(up == down[:, [0, 3, 2, 1]]).all(axis=1)  # a top face flat on the bottom: none
+    return positions, np.concatenate([down[keep], up[keep]])
