@@ -102,3 +102,12 @@ def shape_keys(me, n):
         kb.points.foreach_get("co", co)
         out[kb.name] = co.reshape(n, 3)
     return out
+
+
+def vertex_group_weights(me, groups):
+    """The weights of the vertex groups with the indices ``groups`` (a set): ``(vert, group,
+    weight)`` arrays, one entry per vertex in one of them.  Vertex group weights have no bulk
+    accessor: one pass over the vertices (at build or bake time only)."""
+    pairs = [(v.index, g.group, g.weight) for v in me.vertices for g in v.groups if g.group in groups]
+    arr = np.array(pairs, np.float64).reshape(-1, 3)
+    return arr[:, 0].astype(np.int64), arr[:, 1].astype(np.int64), arr[:, 2]

@@ -3,12 +3,33 @@
 
 import bpy
 
+_KINDS = {"GeometryNodeTree": "Geometry Nodes", "ShaderNodeTree": "shader"}
+
 
 def use_nodes(id_block):
     """Switch on a material's nodes: needed before Blender 5, where they are always on and
     ``use_nodes`` is deprecated (reading it warns too)."""
     if bpy.app.version < (5, 0, 0) and not id_block.use_nodes:
         id_block.use_nodes = True
+
+
+def ensure_group(name, tree_type, version, build, error, key="ewrinkles_version"):
+    """The shared node group ``name`` of ``tree_type``: reused when its ``key`` says
+    ``version``, else built (or rebuilt) by ``build(ng)`` and tagged.  Raises ``error`` for a
+    group of that name of another type, or one to rebuild that is linked and read-only."""
+    ng = bpy.data.node_groups.get(name)
+    if ng is not None and ng.bl_idname != tree_type:
+        raise error(f'A node group named "{name}" exists but is not a {_KINDS.get(tree_type, tree_type)} '
+                    "group; rename it")
+    if ng is not None and ng.get(key) == version:
+        return ng
+    if ng is not None and (ng.library is not None or not ng.is_editable):
+        raise error(f'The node group "{name}" is linked from a library and cannot be edited; make it local')
+    if ng is None:
+        ng = bpy.data.node_groups.new(name, tree_type)
+    build(ng)
+    ng[key] = version
+    return ng
 
 
 class Builder:

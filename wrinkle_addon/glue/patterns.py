@@ -7,8 +7,9 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
+from ..core import mesh as core_mesh
 from ..core import patterns
-from . import meshio
+from . import meshio, surface
 from .errors import WrinkleError
 from .muscles import landmarks
 
@@ -54,12 +55,9 @@ def vertex_group_weights(face, name):
     vg = face.vertex_groups.get(name) if name else None
     if vg is None:
         raise PatternError(f'"{face.name}" has no vertex group named "{name}"')
-    # Vertex group weights have no bulk accessor: one pass over the vertices.
-    pairs = [(v.index, g.weight) for v in face.data.vertices for g in v.groups if g.group == vg.index]
+    vert, _group, weight = meshio.vertex_group_weights(face.data, {vg.index})
     w = np.zeros(len(face.data.vertices))
-    if pairs:
-        arr = np.array(pairs, np.float64)
-        w[arr[:, 0].astype(np.int64)] = arr[:, 1]
+    w[vert] = weight
     if not (w > 0).any():
         raise PatternError(f'The vertex group "{name}" of "{face.name}" is empty: assign vertices to it')
     return w
@@ -148,16 +146,18 @@ def surface_frame(face, point, normal, unit):
 
 
 def nearest_on_skin(face, point_world):
-    """The closest point on the face's rest surface to ``point_world`` and its normal, both
-    in the face's space."""
-    from mathutils.bvhtree import BVHTree
-
+    """The closest point on the face's rest surface to ``point_world`` and the normal of the
+    triangle it lies on, both in the face's space."""
     me = face.data
-    bvh = BVHTree.FromPolygons([v.co for v in me.vertices], [p.vertices for p in me.polygons])
-    loc, normal, _i, _d = bvh.find_nearest(face.matrix_world.inverted_safe() @ Vector(point_world))
-    if loc is None:
+    rest = meshio.read_vectors(me, "position").astype(np.float64)
+    corner, starts, sizes = meshio.read_polygons(me)
+    tris = core_mesh.fan_triangles(corner, starts, sizes)
+    if len(tris) == 0:
         raise PatternError(f'"{face.name}" has no faces to put a pattern on')
-    return loc, normal
+    local = np.array(face.matrix_world.inverted_safe() @ Vector(point_world), np.float64)
+    tri, _bary, _dist, loc = surface.Snapper(rest, tris).nearest(local[None])
+    a, b, c = rest[tris[tri[0]]]
+    return Vector(loc[0].tolist()), Vector(np.cross(b - a, c - a).tolist()).normalized()
 
 
 def selected_point(face):

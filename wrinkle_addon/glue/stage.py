@@ -17,7 +17,7 @@ frame renders without wrinkles instead of with another frame's (stale) wrinkles.
 import bpy
 import numpy as np
 
-from . import meshio
+from . import meshio, nodes
 from .errors import WrinkleError
 
 GROUP_NAME = "Wrinkle Output"
@@ -76,24 +76,12 @@ def _build_group(ng):
         node.location = (200 * i, 0)
     for i, node in enumerate((time, stamp, same, gate)):
         node.location = (400 + 200 * (i // 2) + 200 * (i == 3), -200 - 150 * (i % 2))
-    ng["wrinkle_stage_version"] = VERSION
 
 
 def ensure_group():
     """The shared node group; reused when it exists, refused when linked and read-only."""
-    ng = bpy.data.node_groups.get(GROUP_NAME)
-    if ng is not None and ng.bl_idname != "GeometryNodeTree":
-        raise StageError(f'A node group named "{GROUP_NAME}" exists but is not a Geometry Nodes group; '
-                         "rename it")
-    if ng is not None and ng.get("wrinkle_stage_version") == VERSION:
-        return ng
-    if ng is not None and (ng.library is not None or not ng.is_editable):
-        raise StageError(f'The node group "{GROUP_NAME}" is linked from a library and cannot be '
-                         "edited; make it local")
-    if ng is None:
-        ng = bpy.data.node_groups.new(GROUP_NAME, "GeometryNodeTree")
-    _build_group(ng)
-    return ng
+    return nodes.ensure_group(GROUP_NAME, "GeometryNodeTree", VERSION, _build_group, StageError,
+                              key="wrinkle_stage_version")
 
 
 def find_modifier(ob):

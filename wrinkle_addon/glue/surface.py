@@ -4,6 +4,7 @@
 
 import bpy
 import numpy as np
+from mathutils.bvhtree import BVHTree
 
 from ..core import mesh as core_mesh
 from . import faces, meshio, stage
@@ -79,3 +80,45 @@ def evaluated_skin(face, n, depsgraph=None):
     if len(ev.vertices) < n:
         return None
     return meshio.read_vector_prefix(ev, name, n, np.empty((n, 3), np.float32))
+
+
+class Snapper:
+    """Closest points on a face's rest surface: ``(T, 3)`` triangles of ``rest``."""
+
+    def __init__(self, rest, tris):
+        self.rest = np.asarray(rest, np.float64)
+        self.tris = np.asarray(tris, np.int64)
+        self.bvh = BVHTree.FromPolygons(self.rest.tolist(), self.tris.tolist(), all_triangles=True)
+
+    def nearest(self, points):
+        """For (k, 3) points: the triangle index (k,), the barycentric coordinates (k, 3)
+        of the closest surface point, the distance (k,) and the point itself (k, 3).  -1
+        where none was found."""
+        points = np.asarray(points, np.float64)
+        tri = np.full(len(points), -1, np.int64)
+        loc = np.zeros_like(points)
+        dist = np.full(len(points), np.inf)
+        for i, co in enumerate(points):  # one query per curve sample (not per vertex)
+            hit = self.bvh.find_nearest(co)
+            if hit[0] is not None:
+                loc[i], tri[i], dist[i] = hit[0], hit[2], hit[3]
+        ok = tri >= 0
+        bary = np.zeros((len(points), 3))
+        if ok.any():
+            a, b, c = (self.rest[self.tris[tri[ok], k]] for k in range(3))
+            bary[ok] = _barycentric(loc[ok], a, b, c)
+        return tri, bary, dist, loc
+
+
+def _barycentric(p, a, b, c):
+    v0, v1, v2 = b - a, c - a, p - a
+    d00 = np.einsum("ij,ij->i", v0, v0)
+    d01 = np.einsum("ij,ij->i", v0, v1)
+    d11 = np.einsum("ij,ij->i", v1, v1)
+    d20 = np.einsum("ij,ij->i", v2, v0)
+    d21 = np.einsum("ij,ij->i", v2, v1)
+    den = d00 * d11 - d01 * d01
+    den = np.where(np.abs(den) > 1e-30, den, 1.0)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    return np.clip(np.stack([1.0 - v - w, v, w], 1), 0.0, 1.0)

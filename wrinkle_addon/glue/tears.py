@@ -10,6 +10,7 @@ import bpy
 from ..core import tears
 from .errors import WrinkleError
 from .nodes import Builder, principled, use_nodes
+from .nodes import ensure_group as ensure_group_of
 
 GROUP_NAME = "Teardrop"
 MODIFIER_NAME = "Teardrop"
@@ -95,22 +96,10 @@ def _build(ng):
     b.link(setmat.outputs[0], smooth.inputs["Geometry"])
     gout = b.node("NodeGroupOutput")
     b.link(smooth.outputs[0], gout.inputs["Geometry"])
-    ng["ewrinkles_version"] = VERSION
 
 
 def ensure_group():
-    ng = bpy.data.node_groups.get(GROUP_NAME)
-    if ng is not None and ng.bl_idname != "GeometryNodeTree":
-        raise TearError(f'A node group named "{GROUP_NAME}" exists but is not a Geometry Nodes group: '
-                        "rename it")
-    if ng is not None and ng.get("ewrinkles_version") == VERSION:
-        return ng
-    if ng is not None and (ng.library is not None or not ng.is_editable):
-        raise TearError(f'The node group "{GROUP_NAME}" is linked and read-only: make it local')
-    if ng is None:
-        ng = bpy.data.node_groups.new(GROUP_NAME, "GeometryNodeTree")
-    _build(ng)
-    return ng
+    return ensure_group_of(GROUP_NAME, "GeometryNodeTree", VERSION, _build, TearError)
 
 
 def water_material():

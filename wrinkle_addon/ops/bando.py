@@ -26,7 +26,7 @@ _face = faces.active
 
 def _snapper(face):
     s = face_surface.Surface(face, need_uv=False)
-    return curves.Snapper(s.rest, s.tris), s
+    return face_surface.Snapper(s.rest, s.tris), s
 
 
 def _snap(snapper, local_points):

@@ -35,6 +35,24 @@ class _LayerOperator:
         return True
 
 
+def _where(description):
+    return EnumProperty(
+        name="Where", description=description,
+        items=(("CURSOR", "3D Cursor", "On the skin nearest the 3D cursor"),
+               ("SELECTED", "Selected Vertices", "At the centre of the face's selected vertices")),
+        default="CURSOR")
+
+
+def _on_skin(context, face, where):
+    """The point (face space) and the skin's normal there: at the selected vertices or on
+    the skin nearest the 3D cursor."""
+    if face.mode == "EDIT":
+        face.update_from_editmode()
+    if where == "SELECTED":
+        return glue.selected_point(face)
+    return glue.nearest_on_skin(face, context.scene.cursor.location)
+
+
 class WRINKLE_OT_add_pattern(bpy.types.Operator):
     """Add a pattern-function layer with a new frame Empty on the skin, at the 3D cursor or at
     the selected vertices, turned to the skin's normal"""
@@ -44,23 +62,14 @@ class WRINKLE_OT_add_pattern(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     kind: EnumProperty(name="Type", description="Which pattern to add", items=KINDS, default="FOREHEAD")
-    where: EnumProperty(
-        name="Where", description="Where to put the pattern's frame",
-        items=(("CURSOR", "3D Cursor", "On the skin nearest the 3D cursor"),
-               ("SELECTED", "Selected Vertices", "At the centre of the face's selected vertices")),
-        default="CURSOR")
+    where: _where("Where to put the pattern's frame")
 
     poll = face_poll()
 
     @guarded
     def execute(self, context):
         face = faces.active(context)
-        if face.mode == "EDIT":
-            face.update_from_editmode()
-        if self.where == "SELECTED":
-            point, normal = glue.selected_point(face)
-        else:
-            point, normal = glue.nearest_on_skin(face, context.scene.cursor.location)
+        point, normal = _on_skin(context, face, self.where)
         lay = glue.add_layer(context, face, self.kind, point, normal)
         pipeline.refresh_all(context)
         self.report({"INFO"}, f'Added the pattern "{lay.name}" to "{face.name}"')
@@ -161,11 +170,7 @@ class WRINKLE_OT_add_teardrop(bpy.types.Operator):
     bl_label = "Add Teardrop"
     bl_options = {"REGISTER", "UNDO"}
 
-    where: EnumProperty(
-        name="Where", description="Where the drop forms",
-        items=(("CURSOR", "3D Cursor", "On the skin nearest the 3D cursor"),
-               ("SELECTED", "Selected Vertices", "At the centre of the face's selected vertices")),
-        default="CURSOR")
+    where: _where("Where the drop forms")
     width: FloatProperty(name="Width", description="The drop's size across, as a fraction of the face's "
                          "size", default=0.01, min=0.0001, soft_max=0.05, subtype="FACTOR")
     every: FloatProperty(name="Every", description="How often a new drop falls, in seconds", default=2.0,
@@ -178,12 +183,7 @@ class WRINKLE_OT_add_teardrop(bpy.types.Operator):
     @guarded
     def execute(self, context):
         face = faces.active(context)
-        if face.mode == "EDIT":
-            face.update_from_editmode()
-        if self.where == "SELECTED":
-            point, normal = glue.selected_point(face)
-        else:
-            point, normal = glue.nearest_on_skin(face, context.scene.cursor.location)
+        point, normal = _on_skin(context, face, self.where)
         size = glue.face_size(face) * glue.face_unit(face)
         # the drop forms on the skin, not in it: its widest radius is about 1.5 Width out
         out = (face.matrix_world.to_3x3() @ normal).normalized() * (tears.REACH * self.width * size)

@@ -59,7 +59,7 @@ class CurveSource(WrinkleSource):
         try:
             s = surface.Surface(face)
             m = mapped.mapped_mesh(s.tris, s.uv, len(s.rest))
-            snapper = curves.Snapper(s.rest, s.tris)
+            snapper = surface.Snapper(s.rest, s.tris)
             scale = float(np.ptp(s.rest, axis=0).max()) or 1.0
             found, rest_heights = [], []
             for ob in live:

@@ -124,7 +124,7 @@ def direction_field(context, face, s, m, step, held=None):
             fixed.append(np.flatnonzero(has))
             vectors.append(np.clip(np.linalg.norm(g[has], axis=1), 0, 1)[:, None]
                            * uvd[has] / np.maximum(np.linalg.norm(uvd[has], axis=1), 1e-12)[:, None])
-    snapper = curves.Snapper(s.rest, s.tris)
+    snapper = surface.Snapper(s.rest, s.tris)
     strokes = _strokes_uv(context, face, s, snapper)
     if strokes:
         ref = fs.reference_length * _uv_per_metre(m, s.rest)

@@ -20,7 +20,7 @@ from ...core.maps import jimenez as wrinkle_maps
 from ...core.maps import uvmaps
 from ...core.muscles import system
 from ...core.muscles.waters import muscle_field
-from .. import faces, registry, surface
+from .. import faces, meshio, registry, surface
 from ..errors import WrinkleError
 from ..muscles import landmarks as muscle_landmarks
 from ..muscles import objects as muscle_objects
@@ -375,18 +375,12 @@ def group_zones(face, group_names=None):
     if not index:
         wanted = ", ".join(f'"{n}"' for n in names if n)
         raise BakeError(f'"{face.name}" has none of the vertex groups {wanted}')
-    me = face.data
-    n = len(me.vertices)
-    # Vertex group weights have no bulk accessor: one pass over the vertices.
-    pairs = [(v.index, g.group, g.weight) for v in me.vertices for g in v.groups if g.group in index]
-    zones = np.zeros((n, wrinkle_maps.N_ZONES), np.float32)
-    if pairs:
-        arr = np.array(pairs, np.float64)
-        vert, group, weight = arr[:, 0].astype(np.int64), arr[:, 1].astype(np.int64), arr[:, 2]
-        for gi, zs in index.items():
-            sel = group == gi
-            for z in zs:
-                zones[vert[sel], z] = weight[sel]
+    vert, group, weight = meshio.vertex_group_weights(face.data, index.keys())
+    zones = np.zeros((len(face.data.vertices), wrinkle_maps.N_ZONES), np.float32)
+    for gi, zs in index.items():
+        sel = group == gi
+        for z in zs:
+            zones[vert[sel], z] = weight[sel]
     return zones, missing
 
 
