@@ -1,33 +1,39 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Pattern-function layers: what 10 layers add to a frame of a 50k-vertex face.
+"""Pattern-function layers and shedding tears: what 10 layers and 2 tears add to a frame of
+a 50k-vertex face.
 
 Run:  .venv45/bin/python benchmarks/patterns.py   (or .venv52)
-      options: --verts 50000  --layers 10  --frames 40  --warm 5  --repeats 6
+      options: --verts 50000  --layers 10  --tears 2  --frames 40  --warm 5  --repeats 6
 
 Prints one JSON line, ``{"patterns_frame_ms": ..., "patterns": {...}}``:
 
 ``patterns_frame_ms``
-    What ``--layers`` (10) pattern layers add to a frame on top of the output stage, on the
+    What ``--layers`` (10) pattern layers and ``--tears`` (2) shedding tears add to a frame
+    on top of the output stage, on the
     face and rig of ``benchmarks/frame_update.py`` (``Bench.build``: headgen's head with its
     UV map, the BrowsUp shape key and the jaw bone, ``--rig light``) with Enable Wrinkles.
     The layers, added by the add-on's own operator at the 3D cursor on the skin, each of
     its default size: a forehead, two eye corners, two cheeks, a frown, two dimples and two
     eye pouches, every one running with the scene (Time follows the frame, so each frame
     computes every layer again; the eye corners and the dimples are switched to run too).
-    Two configurations of that scene, in blocks interleaved none, layers, then layers,
+    The tears, added by the add-on's operator along a curve on each cheek from under the eye
+    (``sample_scenes/patterns.tear_path``), run their path in 1.5 s and again every 2 s, so
+    every frame reveals them anew (Surface Deform and the reveal group, no Python).  Three
+    configurations of that scene, in blocks interleaved none, layers, all, then all, layers,
     none, ...: *none*, every layer hidden in the viewport (the source is active and the
-    stage runs, with nothing to add), and *layers*, all shown.  Each block times
+    stage runs, with nothing to add) and the tears disabled in the viewport; *layers*, the
+    layers shown; *all*, the layers shown and the tears enabled.  Each block times
     ``Bench.frame_loop`` (frame_set + evaluated depsgraph + reading the positions, the
     add-on's frame handler in, the viewport's in-place path) over ``--frames`` new frames
     after ``--warm`` warm-up frames.  ``patterns_frame_ms`` is the median over the repeats of
-    (median frame of the layers block - median frame of the none block next to it).
+    (median frame of the all block - median frame of the none block next to it).
 ``patterns``
     The detail: the footprint (vertices raised by any layer), the layers' region sizes, both
     pooled medians, the per-repeat figures, the largest height after the layers blocks and
     after the none blocks (0), and ``heights_ms``: ``core.patterns.heights`` alone for all
     the layers (the median over the timed frames' values).
-    ``shedding_tears``: 0 - the shedding tears are not built yet, so the issue's "10 pattern
-    layers and 2 shedding tears" is measured without the tears.
+    ``layers_ms`` and ``tears_ms``: the same median of (layers - none) and of (all - layers),
+    the two parts of the figure; ``tear_verts``: the tears' vertices.
 """
 
 import argparse
@@ -68,6 +74,24 @@ def places(lm):
             pouch, mirror(pouch)]
 
 
+def add_tears(face, lm, count):
+    """Up to two shedding tears, one under each eye, by the add-on's operator along a curve on
+    the skin; each runs its path in 1.5 s and again every 2 s."""
+    from sample_scenes import patterns as sample
+    from wrinkle_addon.glue import shedding, tears
+
+    out = []
+    for side in range(count):
+        marks = dict(lm)
+        if side == 1:  # the right cheek: the left's landmarks mirrored across the midline
+            mid = lm["glabella"][0]
+            marks = {k: np.array([2 * mid - v[0], v[1], v[2]]) for k, v in lm.items()}
+        ob = sample.add_shedding_tear(face, marks, 1, 1.5)
+        tears.set_input(ob.modifiers[shedding.MODIFIER_NAME], "Every", 2.0)
+        out.append(ob)
+    return out
+
+
 def main(argv=None):
     import bpy
     import frame_update as fu  # bpy, the add-on enabled; its Bench builds and times the face
@@ -78,6 +102,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--verts", type=int, default=50000)
     ap.add_argument("--layers", type=int, default=10, help="up to 10")
+    ap.add_argument("--tears", type=int, default=2, help="up to 2")
     ap.add_argument("--frames", type=int, default=40)
     ap.add_argument("--warm", type=int, default=5)
     ap.add_argument("--repeats", type=int, default=6)
@@ -106,14 +131,23 @@ def main(argv=None):
             if lay.show_viewport != on:
                 lay.show_viewport = on
 
+    tears = add_tears(face, bench.landmarks, args.tears)
+
+    def show_tears(on):
+        for ob in tears:
+            if ob.hide_viewport == on:
+                ob.hide_viewport = not on
+
     show(True)
+    show_tears(True)
     bench.frame_loop(bench.warm)
     state = fu.pipeline._cache[face.session_uid]
     static = state.statics["patterns"][1]
     if static.problem or len(static.plan.layers) != len(layers):
         raise RuntimeError(f"the layers did not all build: {static.problem}")
     detail = {"verts": bench.n, "layers": len(layers), "footprint_verts": int(len(static.plan.footprint)),
-              "region_verts": [int(len(lay.verts)) for lay in static.plan.layers], "shedding_tears": 0}
+              "region_verts": [int(len(lay.verts)) for lay in static.plan.layers],
+              "shedding_tears": len(tears), "tear_verts": [len(ob.data.vertices) for ob in tears]}
     from wrinkle_addon.glue import registry
 
     src = next(s for s in registry.sources() if s.name == "patterns")
@@ -124,30 +158,35 @@ def main(argv=None):
         core.heights(static.plan, values)
         ht.append(time.perf_counter() - t)
     detail["heights_ms"] = fu.ms(ht)
-    times = {"none": [], "layers": []}
-    peak = {"none": [], "layers": []}
+    configs = ("none", "layers", "all")
+    times = {c: [] for c in configs}
+    peak = {c: [] for c in configs}
     for rep in range(args.repeats):
-        for config in (("none", "layers") if rep % 2 == 0 else ("layers", "none")):
-            show(config == "layers")
+        for config in (configs if rep % 2 == 0 else configs[::-1]):
+            show(config != "none")
+            show_tears(config == "all")
             bench.frame_loop(bench.warm)
             times[config].append(bench.frame_loop(bench.frames))
             bench.frame_loop(bench.frames[:3], lambda _ev, c=config: peak[c].append(
                 float(np.abs(fu.pipeline._cache[face.session_uid].out).max())))
-        log(f"repeat {rep + 1}/{args.repeats}: none {fu.ms(times['none'][-1]):.2f} ms, "
-            f"layers {fu.ms(times['layers'][-1]):.2f} ms")
+        log(f"repeat {rep + 1}/{args.repeats}: "
+            + ", ".join(f"{c} {fu.ms(times[c][-1]):.2f} ms" for c in configs))
     med = {c: [fu.ms(b) for b in blocks] for c, blocks in times.items()}
-    cost = [a - b for a, b in zip(med["layers"], med["none"])]
-    detail.update({"frame_ms": fu.ms([x for b in times["layers"] for x in b]),
+    cost = [a - b for a, b in zip(med["all"], med["none"])]
+    detail["layers_ms"] = fu.clean(fu.median_or_none([a - b for a, b in zip(med["layers"], med["none"])]))
+    detail["tears_ms"] = fu.clean(fu.median_or_none([a - b for a, b in zip(med["all"], med["layers"])]))
+    detail.update({"frame_ms": fu.ms([x for b in times["all"] for x in b]),
                    "base_frame_ms": fu.ms([x for b in times["none"] for x in b]),
                    "max_height_mm": max(peak["layers"]) * 1000.0,
                    "max_height_none_mm": max(peak["none"]) * 1000.0,
-                   "per_repeat": {"layers_ms": med["layers"], "none_ms": med["none"], "cost_ms": cost},
+                   "per_repeat": {"all_ms": med["all"], "layers_ms": med["layers"], "none_ms": med["none"],
+                                  "cost_ms": cost},
                    "bpy": bpy.app.version_string})
     if not detail["max_height_mm"] > 0.0 or detail["max_height_none_mm"] != 0.0:
         raise RuntimeError("the layers blocks raised nothing, or the none blocks did")
     result = fu.median_or_none(cost)
-    log(f"patterns_frame_ms {result:.3f}; heights alone {detail['heights_ms']:.3f} ms; footprint "
-        f"{detail['footprint_verts']} verts")
+    log(f"patterns_frame_ms {result:.3f} (layers {detail['layers_ms']}, tears {detail['tears_ms']}); heights "
+        f"alone {detail['heights_ms']:.3f} ms; footprint {detail['footprint_verts']} verts")
     print(json.dumps({"patterns_frame_ms": fu.clean(result), "patterns": fu.clean(detail)}), flush=True)
     bpy.ops.wm.read_factory_settings(use_empty=True)  # bpy 4.5 hangs at exit otherwise
 

@@ -15,7 +15,8 @@ wrinkles off (the same deformation, no wrinkles) and on - and writes
 ``out/contact_sheet.png``: one row per scene, each expression as a without/with pair,
 labelled with the scene's name and the expression's (sample_scenes/lib/labels.py), and
 ``out/before_after.png``: Surprise and Frowning of the ICT head (or the procedural head),
-without / with.
+without / with, and ``out/pattern_frames.png``: close-ups of the pattern layers and the tears
+over four frames each (sample_scenes/pattern_frames.py).
 Blender's own render log goes to ``out/render.log``.
 """
 
@@ -40,7 +41,14 @@ import numpy as np  # noqa: E402
 if addon_utils.enable("wrinkle_addon", default_set=True) is None:
     raise SystemExit("demo: the wrinkle_addon add-on did not load (see the message above)")
 
-from sample_scenes import forehead_curves, forehead_patch, head, scanned_head, scanned_head_maps  # noqa: E402
+from sample_scenes import (  # noqa: E402
+    forehead_curves,
+    forehead_patch,
+    head,
+    pattern_frames,  # noqa: E402
+    scanned_head,
+    scanned_head_maps,
+)
 from sample_scenes import hand as hand_scene  # noqa: E402
 from sample_scenes import patterns as patterns_scene  # noqa: E402
 from sample_scenes.lib import labels, scene_setup  # noqa: E402
@@ -167,6 +175,13 @@ def main(argv=None):
     contact_sheet([pick[:2], pick[2:4]], out / "before_after.png")
     log(f"contact sheet -> {sheet} (rows: {', '.join(j[0] for j in jobs)}; "
         "each expression as a without / with wrinkles pair)")
+    # close-ups of the pattern layers and the tears, four frames each
+    frames_out = out / "pattern_frames"
+    frames_out.mkdir(exist_ok=True)
+    rows, captions = pattern_frames.render(frames_out, args.size, args.samples, log=log, quiet=quiet)
+    names = [name for name, *_rest in pattern_frames.cases()]
+    contact_sheet(rows, out / "pattern_frames.png", row_names=names, captions=captions)
+    log(f"pattern close-ups -> {out / 'pattern_frames.png'} (rows: {', '.join(names)})")
     bpy.ops.wm.read_factory_settings(use_empty=True)  # avoids the bpy 4.5 exit hang
 
 

@@ -4,7 +4,8 @@ brows.  On the scanned ICT head (../shared/data/ict_head.npz, not shipped) the l
 driven by its ARKit shape keys (eyeSquint, mouthSmile, browDown); on the procedural head
 (``--head procedural``) by its muscles' contractions.  Only the pattern layers wrinkle the
 face here, so the renders show them alone.  A dripping tear forms at the chin on frame 30
-and is falling on frame 40.
+and is falling on frame 40; a shedding tear starts under the left eye on frame 1 and is
+halfway down the cheek on frame 20.
 
 Run alone to save a .blend: ``python sample_scenes/patterns.py out/patterns.blend``.
 """
@@ -25,6 +26,7 @@ DATA = ROOT.parent / "shared" / "data" / "ict_head.npz"
 SMILE = {"mouthSmile_L": 1.0, "mouthSmile_R": 1.0, "eyeSquint_L": 1.0, "eyeSquint_R": 1.0}
 FROWN = {"browDown_L": 1.0, "browDown_R": 1.0}
 SHOTS = {"Neutral": 1, "Smile": 20, "Frowning": 40}
+LANDMARKS = {}  # the last built head's landmarks (face space), for the close-ups
 
 
 def available():
@@ -82,11 +84,57 @@ def add_tear(face, lm, frame):
     assert bpy.ops.wrinkle.add_teardrop(every=60.0, lasts=3.0) == {"FINISHED"}
 
 
+def tear_path(face, lm, n=16):
+    """A shedding tear's path on the left cheek, as an artist draws it on the skin (Curve >
+    Draw, Depth: Surface): from under the lower lid down beside the nose to the mouth's
+    height, each point dropped onto the skin straight from the front (face space)."""
+    from mathutils import Vector
+    from mathutils.bvhtree import BVHTree
+
+    eye, mouth = np.asarray(lm["eye_L"], float), np.asarray(lm["mouth_corner_L"], float)
+    d = eye[2] - mouth[2]
+    start = eye + np.array([0.05 * d, 0.0, -0.22 * d])
+    end = np.array([0.5 * (eye[0] + mouth[0]) + 0.2 * d, 0.0, mouth[2] + 0.1 * d])
+    me = face.data
+    bvh = BVHTree.FromPolygons([v.co[:] for v in me.vertices], [p.vertices[:] for p in me.polygons])
+    out = []
+    for t in np.linspace(0.0, 1.0, n):
+        x, _y, z = (1 - t) * start + t * end
+        hit = bvh.ray_cast(Vector((x, -10.0, z)), Vector((0.0, 1.0, 0.0)))[0]
+        if hit is not None:
+            out.append(tuple(hit))
+    return out
+
+
+def add_shedding_tear(face, lm, frame, seconds):
+    """A shedding tear that starts under the left eye on ``frame`` and runs down the cheek in
+    ``seconds``; its path is a curve on the skin, as an artist draws one.  Returns the tear."""
+    scene = bpy.context.scene
+    scene.frame_set(frame)
+    curve = bpy.data.curves.new("Tear Path", "CURVE")
+    curve.dimensions = "3D"
+    pts = tear_path(face, lm)
+    spline = curve.splines.new("POLY")
+    spline.points.add(len(pts) - 1)
+    spline.points.foreach_set("co", np.array([(*p, 1.0) for p in pts], np.float32).ravel())
+    path = bpy.data.objects.new("Tear Path", curve)
+    scene.collection.objects.link(path)
+    path.matrix_world = face.matrix_world
+    rigging.activate(face)
+    path.select_set(True)
+    before = set(bpy.data.objects)
+    assert bpy.ops.wrinkle.add_shedding_tear(path="CURVE", duration=seconds) == {"FINISHED"}
+    path.hide_render = True
+    return next(o for o in bpy.data.objects if o not in before)
+
+
 def build_ict(view="front"):
     from sample_scenes.lib import ict
 
     scene = bpy.context.scene
     data = ict.load_ict(DATA)
+    LANDMARKS.clear()
+    LANDMARKS.update(data["landmarks"])
     face = ict.ict_object(data, name="ICTHead")
     scene_setup.add_portrait_rig(scene, face, view=view, frame_scale=1.35)
     # the landmarks keep every layer off the eyelids and the lips; the muscles make none
@@ -97,6 +145,7 @@ def build_ict(view="front"):
                                          "FROWN": ("SHAPE_KEY", "browDown_L")})
     rigging.key_shape_keys(face, {1: {}, 20: SMILE, 40: FROWN})
     add_tear(face, data["landmarks"], 30)
+    add_shedding_tear(face, data["landmarks"], 1, 1.6)
     scene.frame_start, scene.frame_end = 1, 40
     return face, SHOTS
 
@@ -106,6 +155,8 @@ def build_procedural(view="front"):
 
     scene = bpy.context.scene
     head = headgen.make_head(40000)
+    LANDMARKS.clear()
+    LANDMARKS.update(head["landmarks"])
     face = scene_setup.mesh_object_from_arrays("Head", head["positions"], head["quads"], head["corner_uvs"])
     scene_setup.add_portrait_rig(scene, face, view=view, frame_scale=1.35)
     rigging.wrinkle_face(face, head["landmarks"])
@@ -121,6 +172,7 @@ def build_procedural(view="front"):
         m.ewrinkles_muscle.contraction = 1.0 if m.ewrinkles_muscle.role == "ZYGOMATICUS_MAJOR" else 0.0
         m.keyframe_insert("ewrinkles_muscle.contraction", frame=20)
     add_tear(face, head["landmarks"], 30)
+    add_shedding_tear(face, head["landmarks"], 1, 1.6)
     scene.frame_start, scene.frame_end = 1, 40
     return face, SHOTS
 

@@ -68,7 +68,8 @@ def test_the_shell_is_closed_and_never_inside_the_skin():
     base, normals, arc, w, k = _on_sphere(R)
     factor = tears.reveal_profile(arc, 0.05, 0.006) * (1 - tears.reveal_profile(arc, 0.004, 0.004))
     rise = tears.rise_noise(np.stack([arc, w * 0.004], 1), 0.2, 0.0003, seed=1, eps=0.002)
-    pos, quads = tears.shell(base, normals, w, k, thickness=0.0012, gap=0.0001, rise=rise, factor=factor)
+    pos, quads, partner = tears.shell(base, normals, w, k, thickness=0.0012, gap=0.0001, rise=rise,
+                                      factor=factor)
     # closed: every edge is shared by exactly two faces
     e = np.sort(np.stack([quads, np.roll(quads, -1, axis=1)], 2).reshape(-1, 2), axis=1)
     _u, counts = np.unique(e, axis=0, return_counts=True)
@@ -80,3 +81,75 @@ def test_the_shell_is_closed_and_never_inside_the_skin():
         assert (np.linalg.norm(pts, axis=1) > R).all()
     # the top is never below the bottom, and the head is round: zero thickness ahead of it
     assert len(pos) < 2 * len(base)  # the unrevealed part shares the bottom's vertices
+
+
+def test_resample_keeps_the_ends_and_steps_evenly():
+    path = np.array([[0, 0, 0], [0, 0, 0], [0.01, 0, 0], [0.01, 0, 0.03]], float)
+    out = tears.resample(path, 0.004)
+    np.testing.assert_allclose(out[[0, -1]], path[[0, -1]])
+    steps = np.linalg.norm(np.diff(out, axis=0), axis=1)
+    assert steps.max() <= 0.004 + 1e-12 and steps.min() > 0
+    assert len(out) == 11  # 0.04 long in steps of at most 0.004
+    for bad in (np.zeros((1, 3)), np.zeros((4, 3))):
+        with pytest.raises(ValueError, match="two distinct"):
+            tears.resample(bad, 0.004)
+
+
+def test_the_spine_of_a_band_of_faces_runs_along_it():
+    rng = np.random.default_rng(3)
+    along, across = rng.uniform(0, 0.05, 2000), rng.uniform(-0.002, 0.002, 2000)
+    turn = np.array([[np.cos(0.4), np.sin(0.4)], [-np.sin(0.4), np.cos(0.4)]])
+    xz = np.stack([along, across], 1) @ turn
+    pts = np.stack([xz[:, 0], np.full(2000, 0.1), xz[:, 1]], 1)
+    path, half = tears.spine(pts, 0.002)
+    assert half == pytest.approx(0.002, rel=0.05)
+    direction = (path[-1] - path[0]) / np.linalg.norm(path[-1] - path[0])
+    assert abs(direction @ np.array([turn[0, 0], 0, turn[0, 1]])) > 0.999  # along the band
+    assert np.linalg.norm(path[-1] - path[0]) == pytest.approx(0.05, rel=0.1)
+    with pytest.raises(ValueError, match="no length"):
+        tears.spine(np.ones((5, 3)), 0.002)
+
+
+def test_the_outline_rounds_both_ends_to_a_small_tip():
+    arc = np.linspace(0, 0.05, 501)
+    g = tears.outline(arc, 0.05, 0.004)
+    assert g[0] == pytest.approx(tears.OUTLINE_TIP) and g[-1] == pytest.approx(tears.OUTLINE_TIP)
+    assert (g[(arc >= 0.004) & (arc <= 0.046)] == 1).all()
+    assert (np.diff(g[arc <= 0.004]) >= 0).all() and (np.diff(g[arc >= 0.046]) <= 0).all()
+    # a quarter circle: at half the head the width is sqrt(3)/2
+    assert tears.outline([0.002], 0.05, 0.004)[0] == pytest.approx(np.sqrt(0.75))
+
+
+def test_a_tears_top_stands_on_its_partner_and_its_rows_have_a_centre():
+    R = 0.1
+    theta = np.linspace(0.3, 0.9, 40)
+    path = np.stack([np.zeros(40), -R * np.sin(theta), R * np.cos(theta)], 1)
+    base, arc, w = tears.strip(path, path / R, 0.002, 9, head=0.004)
+    base = base / np.linalg.norm(base, axis=1, keepdims=True) * R
+    t = tears.Tear(base, base / R, w, arc, 40, 0.002, 0.0006, 0.00008, roughness=0.4, seed=2, head=0.004)
+    nb = len(base)
+    top = np.arange(len(t.positions)) >= nb
+    assert (t.partner[~top] == np.arange(nb)).all() and (t.partner[top] < nb).all()
+    lift = t.positions[top] - t.positions[t.partner[top]]
+    normal = t.positions[t.partner[top]] / np.linalg.norm(t.positions[t.partner[top]], axis=1, keepdims=True)
+    assert (np.einsum("ij,ij->i", lift, normal) > 0).all()  # straight up from its partner
+    np.testing.assert_allclose(np.linalg.norm(np.cross(lift, normal), axis=1), 0, atol=1e-12)
+    np.testing.assert_allclose(t.arc, arc[t.partner])
+    # each vertex's centre: the middle of its own row, on its own sheet (the bottom's where
+    # the two sheets meet there, at the rounded ends)
+    assert (np.abs(w[t.partner[t.centre]]) < 1e-12).all()
+    assert (t.partner[t.centre] // 9 == t.partner // 9).all()
+    assert (t.centre[~top] < nb).all()
+    meets = t.centre[top] < nb
+    at = t.arc[top][meets]
+    assert meets.sum() < 0.1 * top.sum() and ((at < 0.004) | (at > arc.max() - 0.004)).all()
+    # the ends are rounded in plan: the first and last rows are narrower than the middle
+    rows = base.reshape(40, 9, 3)
+    width = np.linalg.norm(rows[:, 0] - rows[:, -1], axis=1)
+    assert width[0] < 0.5 * width[20] and width[-1] < 0.5 * width[20]
+    # the rise never sinks: every top vertex at least as high as the taper alone makes it
+    plain = tears.Tear(base, base / R, w, arc, 40, 0.002, 0.0006, 0.00008, roughness=0.0, head=0.004)
+    assert len(plain.positions) == len(t.positions)
+    h_rough = np.linalg.norm(t.positions[top], axis=1)
+    h_plain = np.linalg.norm(plain.positions[top], axis=1)
+    assert (h_rough >= h_plain - 1e-12).all() and (h_rough > h_plain + 1e-6).any()

@@ -25,6 +25,7 @@ the drop's top at birth, so the drop hangs from where it forms and falls at spee
 import numpy as np
 
 T0 = 1.2  # t at the drop's birth: t + cos(u) >= 0.2 > 0
+OUTLINE_TIP = 0.2  # a shedding tear's tip keeps this fraction of its width
 
 
 def teardrop(u, v, tau, alpha, beta, lam, t0=T0):
@@ -85,12 +86,24 @@ def rise_noise(coords, fraction, amplitude, seed, eps, degree=1):
     return np.maximum(mls.fit(c, bumps, c, degree=degree, eps=eps), 0.0)
 
 
-def strip(path, normals, half_width, n_across):
+def outline(arc, length, head, tip=OUTLINE_TIP):
+    """The tear's half width along its path, as a fraction (``arc`` (n,), ``length`` long):
+    1 in the middle, a quarter circle over ``head`` at its start and at its end (never below
+    ``tip``, so the last row keeps a small round tip), as the paper's smoothed head."""
+    a = np.asarray(arc, np.float64)
+    head = max(float(head), 1e-12)
+    x0 = np.clip((head - a) / head, 0.0, 1.0)
+    x1 = np.clip((a - (float(length) - head)) / head, 0.0, 1.0)
+    return np.sqrt(np.maximum((1.0 - x0 * x0) * (1.0 - x1 * x1), tip * tip))
+
+
+def strip(path, normals, half_width, n_across, head=None):
     """A shedding tear's base surface (step one): a band ``2 half_width`` wide along a path
     on the skin, ``path`` (k, 3) samples with the skin's unit ``normals`` (k, 3) there, the
-    band across in the skin's tangent plane (normal x tangent).  Returns ``(positions
-    (k n, 3), arc (k n,), across (k n,) in [-1, 1])``, row by row along the path.  The
-    caller snaps the positions back onto a curved skin."""
+    band across in the skin's tangent plane (normal x tangent); with ``head``, its ends
+    rounded over that length (:func:`outline`).  Returns ``(positions (k n, 3), arc (k n,),
+    across (k n,) in [-1, 1])``, row by row along the path.  The caller snaps the positions
+    back onto a curved skin."""
     p = np.asarray(path, np.float64).reshape(-1, 3)
     n = np.asarray(normals, np.float64).reshape(-1, 3)
     if len(p) < 2:
@@ -103,7 +116,8 @@ def strip(path, normals, half_width, n_across):
     side = np.cross(n, tangent)
     side /= np.maximum(np.linalg.norm(side, axis=1, keepdims=True), 1e-300)
     w = np.linspace(-1.0, 1.0, int(n_across))
-    pos = p[:, None, :] + (half_width * w)[None, :, None] * side[:, None, :]
+    hw = float(half_width) * (np.ones(len(p)) if head is None else outline(arc, arc[-1], head))
+    pos = p[:, None, :] + (hw[:, None] * w[None, :])[..., None] * side[:, None, :]
     return pos.reshape(-1, 3), np.repeat(arc, len(w)), np.tile(w, len(p))
 
 
@@ -114,8 +128,9 @@ def shell(base, normals, across, k, thickness, gap, rise=None, factor=None):
     bottom at both sides; ``factor`` (k n,) the reveal and end taper in [0, 1], ``rise``
     (k n,) >= 0 the roughness).  Where the top meets the bottom (the sides, and every
     point of zero thickness) the two share one vertex, so the surface is closed and has no
-    zero-thickness sliver.  Returns ``(positions (V, 3), quads (F, 4))``, the bottom's
-    faces turned toward the skin, the top's away from it."""
+    zero-thickness sliver.  Returns ``(positions (V, 3), quads (F, 4), partner (V,))``, the
+    bottom's faces turned toward the skin, the top's away from it; ``partner`` is the bottom
+    vertex under each vertex (itself on the bottom), which the reveal lowers the top onto."""
     base = np.asarray(base, np.float64).reshape(-1, 3)
     nrm = np.asarray(normals, np.float64).reshape(-1, 3)
     w = np.asarray(across, np.float64).reshape(-1)
@@ -135,4 +150,86 @@ def shell(base, normals, across, k, thickness, gap, rise=None, factor=None):
     down = np.stack([a, d, c, b], 1)  # toward the skin
     up = top_index[np.stack([a, b, c, d], 1)]
     keep = ~(up == down[:, [0, 3, 2, 1]]).all(axis=1)  # a top face flat on the bottom: none
-    return positions, np.concatenate([down[keep], up[keep]])
+    partner = np.concatenate([np.arange(len(base)), np.flatnonzero(~shared)])
+    return positions, np.concatenate([down[keep], up[keep]]), partner
+
+
+def resample(path, step):
+    """The polyline ``path`` (k, 3) resampled at equal arc-length steps of at most ``step``
+    (the linear subdivision of step one), its ends kept; repeated points dropped first.
+    Raises ValueError for a path of fewer than two distinct points."""
+    p = np.asarray(path, np.float64).reshape(-1, 3)
+    if len(p) > 1:
+        p = p[np.concatenate([[True], np.linalg.norm(np.diff(p, axis=0), axis=1) > 1e-12])]
+    if len(p) < 2:
+        raise ValueError("a tear's path needs at least two distinct points")
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
+    n = max(2, int(np.ceil(arc[-1] / max(float(step), 1e-12))) + 1)
+    s = np.linspace(0.0, arc[-1], n)
+    return np.stack([np.interp(s, arc, p[:, i]) for i in range(3)], 1)
+
+
+def spine(points, step):
+    """The middle line of a patch (the vertices of the selected faces, ``points`` (n, 3)),
+    for a tear that runs along it: the points ordered along the patch's main axis, averaged
+    in bins ``step`` long.  Returns ``(path (k, 3), half_width)``, the half width the median
+    over the bins of half their spread across (the patch's second axis).  A patch that
+    doubles back along its main axis is not followed (draw a curve for that).  Raises
+    ValueError for a patch with no length."""
+    p = np.asarray(points, np.float64).reshape(-1, 3)
+    if len(p) < 2:
+        raise ValueError("a tear's path needs at least two points")
+    centre = p.mean(axis=0)
+    _u, _s, vt = np.linalg.svd(p - centre, full_matrices=False)
+    along, side = (p - centre) @ vt[0], (p - centre) @ vt[1]
+    length = float(np.ptp(along))
+    if length <= 1e-12:
+        raise ValueError("a tear's path has no length")
+    bins = np.minimum(((along - along.min()) / max(float(step), 1e-12)).astype(np.int64),
+                      max(1, int(length / max(float(step), 1e-12))))
+    used, inverse, counts = np.unique(bins, return_inverse=True, return_counts=True)
+    path = np.stack([np.bincount(inverse, p[:, i]) / counts for i in range(3)], 1)
+    lo = np.full(len(used), np.inf)
+    hi = np.full(len(used), -np.inf)
+    np.minimum.at(lo, inverse, side)
+    np.maximum.at(hi, inverse, side)
+    if len(path) < 2:
+        raise ValueError("a tear's path needs at least two points")
+    return path, 0.5 * float(np.median(hi - lo))
+
+
+def taper(arc, length, head):
+    """The finished tear's thickness factor along its path (``arc`` (n,), ``length`` long):
+    rounded over ``head`` at its start and at its head (C¹ both)."""
+    a = np.asarray(arc, np.float64)
+    return reveal_profile(a, length, head) * (1.0 - reveal_profile(a, head, head))
+
+
+class Tear:
+    """A shedding tear's mesh (steps one to four) on its base (:func:`strip`, ``k`` rows,
+    ``half_width``): ``positions`` (V, 3), ``quads`` (F, 4), ``arc`` (V,) the arc length
+    along the path under each vertex, and ``partner`` (V,) the bottom vertex under each
+    (itself on the bottom), and ``centre`` (V,) the vertex at the middle of each vertex's row
+    on its own sheet.  ``thickness`` and ``gap`` as in :func:`shell`; the top's
+    roughness rises up to ``roughness x thickness`` at a ``bumps`` fraction of its points
+    (:func:`rise_noise`, smoothed over the half width); the start and the ``head`` (default:
+    the width) are rounded (:func:`taper`)."""
+
+    def __init__(self, base, normals, across, arc, k, half_width, thickness, gap, roughness=0.0,
+                 bumps=0.15, seed=0, head=None):
+        across = np.asarray(across, np.float64)
+        arc = np.asarray(arc, np.float64)
+        half_width = float(half_width)
+        head = 2.0 * half_width if head is None else float(head)
+        factor = taper(arc, float(arc.max()), min(head, 0.5 * float(arc.max())))
+        rise = rise_noise(np.stack([arc, across * half_width], 1), bumps, float(roughness) * float(thickness),
+                          seed, eps=half_width)
+        self.positions, self.quads, self.partner = shell(base, normals, across, k, thickness, gap,
+                                                         rise=rise, factor=factor)
+        self.arc = arc[self.partner]
+        self.length = float(arc.max())
+        nb, n = len(arc), len(arc) // int(k)
+        top = np.arange(nb)  # each base point's top vertex (itself where the two meet)
+        top[self.partner[nb:]] = np.arange(nb, len(self.positions))
+        middle = (self.partner // n) * n + n // 2  # the bottom at the middle of each row
+        self.centre = np.where(np.arange(len(self.positions)) < nb, middle, top[middle])

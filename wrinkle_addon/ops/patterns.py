@@ -3,12 +3,13 @@
 vertices), remove, duplicate, move, mirror and apply as a shape key."""
 
 import bpy
-from bpy.props import EnumProperty, FloatProperty
+from bpy.props import EnumProperty, FloatProperty, IntProperty
 
 from ..core.patterns import KINDS
-from ..glue import faces, tears
+from ..glue import faces, shedding, tears
 from ..glue import frame as pipeline
 from ..glue import patterns as glue
+from ..glue.progress import Progress
 from ..glue.registry import MeshArrays
 from ..glue.surface import Surface
 from .common import face_ok, face_poll, guarded
@@ -195,11 +196,75 @@ class WRINKLE_OT_add_teardrop(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class WRINKLE_OT_add_shedding_tear(bpy.types.Operator):
+    """Add a shedding tear that runs down the skin along a path: a curve drawn on the face
+    (selected, with the face active), or the face's selected faces.  It follows the face as it
+    deforms and never enters the skin"""
+
+    bl_idname = "wrinkle.add_shedding_tear"
+    bl_label = "Add Shedding Tear"
+    bl_options = {"REGISTER", "UNDO"}
+
+    path: EnumProperty(
+        name="Path", description="What gives the tear's path",
+        items=(("AUTO", "Automatic", "A selected curve if there is one, else the face's selected faces"),
+               ("CURVE", "Selected Curve", "A curve drawn on the skin (Curve > Draw, Depth: Surface), "
+                "selected with the face active; the tear runs from the curve's start"),
+               ("FACES", "Selected Faces", "The face's selected faces; the tear runs from their higher end, "
+                "as wide as they are")),
+        default="AUTO")
+    width: FloatProperty(name="Width", description="The tear's width along a curve, as a fraction of the "
+                         "face's size (selected faces give their own width)", default=0.008, min=0.0005,
+                         soft_max=0.05, subtype="FACTOR")
+    thickness: FloatProperty(name="Thickness", description="How far the tear stands off the skin at its "
+                             "middle, as a fraction of its width", default=0.2, min=0.02, max=1.0,
+                             subtype="FACTOR")
+    roughness: FloatProperty(name="Roughness", description="How high the bumps of the tear's top rise, as a "
+                             "fraction of its thickness (rougher skin holds more); they only rise",
+                             default=0.4, min=0.0, max=2.0, subtype="FACTOR")
+    seed: IntProperty(name="Seed", description="Which bumps: another seed, another random pattern",
+                      default=0, min=0)
+    duration: FloatProperty(name="Run Time", description="How long the tear takes to run its whole path, "
+                            "in seconds", default=3.0, min=0.05, soft_max=30.0, subtype="TIME_ABSOLUTE",
+                            unit="TIME_ABSOLUTE")
+    every: FloatProperty(name="Every", description="Run again every so many seconds, a running cycle; 0: "
+                         "run once and stay", default=0.0, min=0.0, soft_max=30.0, subtype="TIME_ABSOLUTE",
+                         unit="TIME_ABSOLUTE")
+
+    poll = face_poll()
+
+    @guarded
+    def execute(self, context):
+        face = faces.active(context)
+        if face.mode == "EDIT":
+            face.update_from_editmode()
+        half = 0.5 * self.width * glue.face_size(face)  # face units
+        curves = [o for o in context.selected_objects if o.type == "CURVE"]
+        kind = self.path if self.path != "AUTO" else ("CURVE" if curves else "FACES")
+        with Progress(context, self.bl_label) as progress:
+            progress(0.1, "reading the path")
+            if kind == "CURVE":
+                if len(curves) != 1:
+                    raise tears.TearError(f"Select one curve for the tear's path, with the face active "
+                                          f"({len(curves)} selected)")
+                path = shedding.curve_path(face, curves[0], context.evaluated_depsgraph_get())
+            else:
+                path, half = shedding.selected_faces_path(face, half)
+            progress(0.3, "building the tear")
+            ob = shedding.add_shedding_tear(
+                context, face, path, half, self.thickness * 2.0 * half, shedding.GAP * 2.0 * half,
+                roughness=self.roughness, seed=self.seed, progress=progress,
+                duration=self.duration, Start=context.scene.frame_current / _fps(context.scene),
+                Every=self.every)
+        self.report({"INFO"}, f'Added "{ob.name}": its timing is in its {shedding.MODIFIER_NAME} modifier')
+        return {"FINISHED"}
+
+
 def _fps(scene):
     return scene.render.fps / (scene.render.fps_base or 1.0)
 
 
-classes = (WRINKLE_OT_add_teardrop, WRINKLE_OT_add_pattern, WRINKLE_OT_remove_pattern,
-           WRINKLE_OT_duplicate_pattern, WRINKLE_OT_move_pattern, WRINKLE_OT_mirror_pattern,
-           WRINKLE_OT_apply_pattern)
+classes = (WRINKLE_OT_add_teardrop, WRINKLE_OT_add_shedding_tear, WRINKLE_OT_add_pattern,
+           WRINKLE_OT_remove_pattern, WRINKLE_OT_duplicate_pattern, WRINKLE_OT_move_pattern,
+           WRINKLE_OT_mirror_pattern, WRINKLE_OT_apply_pattern)
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -31,7 +31,9 @@ def draw_face_patterns(layout, context, face):
     col.separator()
     col.operator("wrinkle.move_pattern", icon="TRIA_UP", text="").direction = "UP"
     col.operator("wrinkle.move_pattern", icon="TRIA_DOWN", text="").direction = "DOWN"
-    layout.operator("wrinkle.add_teardrop", icon="MOD_FLUIDSIM")
+    row = layout.row(align=True)
+    row.operator("wrinkle.add_teardrop", icon="MOD_FLUIDSIM")
+    row.operator("wrinkle.add_shedding_tear", icon="MOD_OCEAN")
     if not st.layers:
         return
     lay = st.layers[min(st.active, len(st.layers) - 1)]

@@ -1,0 +1,220 @@
+"""Shedding tears in Blender: a tear built along a path on the skin (a curve drawn on it, or
+selected faces), bound to the skin so it follows the face, revealed by the scene time with
+no Python per frame, and never inside the skin."""
+
+from pathlib import Path
+
+import bpy
+import numpy as np
+import pytest
+from mathutils.bvhtree import BVHTree
+
+from tests.blender import scenes
+from wrinkle_addon.glue import shedding, tears
+
+R = 0.1  # the sphere "face"
+DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ict_head.npz"
+
+
+def _sphere_face():
+    """A head-sized sphere facing every way, with a 'Puff' shape key that swells it unevenly
+    (forward and narrower): the skin a tear must follow."""
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=R, segments=48, ring_count=24)
+    face = bpy.context.active_object
+    face.name = "Face"
+    face.shape_key_add(name="Basis")
+    key = face.shape_key_add(name="Puff")
+    key.value = 0.0  # bpy 5.2 creates new shape keys at 1.0
+    co = np.empty(len(face.data.vertices) * 3, np.float32)
+    key.data.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    co[:, 1] *= 1.15
+    co[:, 0] *= 0.9
+    key.data.foreach_set("co", co.ravel())
+    return face, key
+
+
+def _curve(points, name="Tear Path"):
+    cu = bpy.data.curves.new(name, "CURVE")
+    cu.dimensions = "3D"
+    sp = cu.splines.new("POLY")
+    sp.points.add(len(points) - 1)
+    sp.points.foreach_set("co", np.array([(*p, 1.0) for p in points], np.float32).ravel())
+    ob = bpy.data.objects.new(name, cu)
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def _meridian(n=20, lo=0.4, hi=1.2, radius=R):
+    th = np.linspace(lo, hi, n)
+    return np.stack([np.full(n, 0.01), -radius * np.sin(th), radius * np.cos(th)], 1)
+
+
+def _add(face, curve, **kw):
+    for o in bpy.context.selected_objects:
+        o.select_set(False)
+    curve.select_set(True)
+    face.select_set(True)
+    bpy.context.view_layer.objects.active = face
+    assert bpy.ops.wrinkle.add_shedding_tear(path="CURVE", **kw) == {"FINISHED"}
+    return next(o for o in bpy.data.objects if o.name.endswith(" Tear"))
+
+
+def _evaluated(ob):
+    dg = bpy.context.evaluated_depsgraph_get()
+    me = ob.evaluated_get(dg).data
+    co = np.empty(len(me.vertices) * 3, np.float32)
+    me.vertices.foreach_get("co", co)
+    arc = np.empty(len(me.vertices), np.float32)
+    if len(me.vertices):
+        me.attributes[shedding.ARC_ATTR].data.foreach_get("value", arc)
+    loops = np.empty(len(me.loops), np.int32)
+    me.loops.foreach_get("vertex_index", loops)
+    return co.reshape(-1, 3), arc, loops.reshape(-1, 4), len(me.polygons)
+
+
+def signed_distances(face, ob):
+    """The signed distance to the face's evaluated skin (positive outside) of every vertex,
+    edge midpoint and face centre of the evaluated tear."""
+    dg = bpy.context.evaluated_depsgraph_get()
+    fe = face.evaluated_get(dg).data
+    pos = np.empty(len(fe.vertices) * 3, np.float32)
+    fe.vertices.foreach_get("co", pos)
+    bvh = BVHTree.FromPolygons(pos.reshape(-1, 3).tolist(), [p.vertices[:] for p in fe.polygons])
+    co, _arc, quads, _n = _evaluated(ob)
+    edges = np.stack([quads, np.roll(quads, -1, axis=1)], 2).reshape(-1, 2)
+    pts = np.concatenate([co, co[edges].mean(axis=1), co[quads].mean(axis=1)])
+    out = np.empty(len(pts))
+    for i, p in enumerate(pts):
+        loc, normal, _index, _d = bvh.find_nearest(p)
+        out[i] = (p - np.array(loc)) @ np.array(normal)
+    return out
+
+
+def test_the_tear_runs_down_its_path_follows_the_skin_and_never_enters_it():
+    face, key = _sphere_face()
+    curve = _curve(_meridian())
+    ob = _add(face, curve, duration=2.0, width=0.015)
+    assert ob.parent == face
+    follow, reveal = ob.modifiers
+    assert follow.type == "SURFACE_DEFORM" and follow.is_bound and follow.target == face
+    assert reveal.node_group.name == shedding.GROUP_NAME
+    assert ob.data.materials[0].name == tears.MATERIAL_NAME
+    length = ob["ewrinkles_tear_length"]
+    assert length == pytest.approx(0.08, rel=0.02)  # the meridian from 0.4 to 1.2 rad
+    speed = tears.get_input(reveal, "Speed")
+    assert speed == pytest.approx(length / 2.0, rel=1e-4)
+    scene = bpy.context.scene
+    fps = scene.render.fps / scene.render.fps_base
+    row = 2.0 * 0.5 * 0.015 * 0.2 / shedding.ROWS_PER_WIDTH  # rows along the path, face units
+    shown, faces_shown = [], []
+    for frame in (1, 6, 12, 24, 36, 48, 60):
+        scene.frame_set(frame)
+        co, arc, _q, n_faces = _evaluated(ob)
+        h = speed * (frame - 1) / fps  # started on frame 1
+        front = float(arc.max()) if len(arc) else 0.0
+        assert front <= min(h, length) + row + 1e-6  # nothing ahead of the head
+        assert front >= min(h, length) - 1e-6
+        shown.append(front)
+        faces_shown.append(n_faces)
+        if n_faces:
+            d = signed_distances(face, ob)
+            assert d.min() > 0.0, f"frame {frame}: {d.min()}"
+    assert faces_shown[0] == 0  # on its first frame it has not run yet
+    assert shown == sorted(shown) and faces_shown == sorted(faces_shown)  # it only runs on
+    assert faces_shown[-1] == len(ob.data.polygons)  # all of it at the end
+    # the head is round: just behind it the tear is thinner than further back
+    scene.frame_set(24)
+    co, arc, _q, _n = _evaluated(ob)
+    rest = np.linalg.norm(co, axis=1) - R  # height over the sphere
+    front = arc.max()
+    head = tears.get_input(reveal, "Head")
+    behind = (arc > front - 3 * head) & (arc < front - 2 * head)
+    assert rest[arc > front - 0.25 * head].max() < 0.6 * rest[behind].max()
+    # it follows the face: swollen, the tear moves out with the skin and stays on it
+    scene.frame_set(60)
+    before, _a, _q, _n = _evaluated(ob)
+    for value in (0.5, 1.0):
+        key.value = value
+        bpy.context.view_layer.update()
+        d = signed_distances(face, ob)
+        assert 0.0 < d.min() and d.max() < 0.015 * 0.2 * 2 * 0.5 * 2.0 + 0.005  # on the skin, not floating
+    after, _a, _q, _n = _evaluated(ob)
+    assert np.linalg.norm(after - before, axis=1).mean() > 0.005
+
+
+def test_selected_faces_give_the_path_from_their_higher_end():
+    face = scenes.make_face(shape_key=False)  # the XZ plane facing -Y
+    me = face.data
+    centres = np.empty(len(me.polygons) * 3, np.float32)
+    me.polygons.foreach_get("center", centres)
+    centres = centres.reshape(-1, 3)
+    band = (np.abs(centres[:, 0] - 0.01) < 0.003) & (centres[:, 2] > 0.015) & (centres[:, 2] < 0.065)
+    me.polygons.foreach_set("select", band)
+    bpy.context.view_layer.objects.active = face
+    assert bpy.ops.wrinkle.add_shedding_tear(path="FACES", duration=1.0) == {"FINISHED"}
+    ob = next(o for o in bpy.data.objects if o.name.endswith(" Tear"))
+    co = np.empty(len(ob.data.vertices) * 3, np.float32)
+    ob.data.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    arc = np.empty(len(co), np.float32)
+    ob.data.attributes[shedding.ARC_ATTR].data.foreach_get("value", arc)
+    assert co[arc.argmin(), 2] > co[arc.argmax(), 2] + 0.03  # runs down
+    assert np.ptp(co[:, 0]) == pytest.approx(0.006, rel=0.25)  # as wide as the band
+    assert (co[:, 1] < 0).all()  # on the skin's side (-Y), not behind it
+
+
+@pytest.mark.parametrize("case, message", [
+    ("one point", "at least two"),
+    ("off the skin", "off the skin"),
+    ("two curves", "Select one curve"),
+    ("no faces", "No face"),
+])
+def test_bad_paths_get_a_message_and_no_tear(case, message):
+    face, _key = _sphere_face()
+    if case == "one point":
+        _curve(_meridian(n=1)).select_set(True)
+    elif case == "off the skin":
+        _curve(_meridian(radius=1.5 * R)).select_set(True)
+    elif case == "two curves":
+        _curve(_meridian()).select_set(True)
+        _curve(_meridian(lo=1.3, hi=1.8)).select_set(True)
+    face.select_set(True)
+    bpy.context.view_layer.objects.active = face
+    path = "FACES" if case == "no faces" else "CURVE"
+    if case == "no faces":
+        face.data.polygons.foreach_set("select", np.zeros(len(face.data.polygons), bool))
+    with pytest.raises(RuntimeError, match=message):
+        bpy.ops.wrinkle.add_shedding_tear(path=path)
+    assert not any(o.name.endswith(" Tear") for o in bpy.data.objects)
+
+
+@pytest.mark.skipif(not DATA.exists(), reason=f"{DATA} not found")
+def test_on_the_scanned_head_the_tear_stays_out_of_the_smiling_cheek():
+    """The sample's tear under the left eye of the ICT head, while the cheek rises in a smile
+    and a squint (shape keys): never inside the skin."""
+    from sample_scenes import patterns
+    from sample_scenes.lib import ict
+
+    data = ict.load_ict(DATA)
+    face = ict.ict_object(data, name="ICTHead")
+    patterns.add_shedding_tear(face, data["landmarks"], 1, 1.0)
+    ob = next(o for o in bpy.data.objects if o.name.endswith(" Tear"))
+    bpy.context.scene.frame_set(30)  # all of it shows
+    assert len(_evaluated(ob)[0]) == len(ob.data.vertices)
+    keys = face.data.shape_keys.key_blocks
+    for name in ("mouthSmile_L", "eyeSquint_L", "cheekSquint_L", "cheekPuff_L"):
+        assert name in keys
+    for k in keys[1:]:
+        k.value = 0.0
+    bpy.context.view_layer.update()
+    rest = _evaluated(ob)[0]
+    for values in ({"mouthSmile_L": 1.0}, {"mouthSmile_L": 1.0, "eyeSquint_L": 1.0, "cheekSquint_L": 1.0},
+                   {"cheekPuff_L": 1.0, "jawOpen": 1.0}):
+        for k in keys[1:]:
+            k.value = values.get(k.name, 0.0)
+        bpy.context.view_layer.update()
+        d = signed_distances(face, ob)
+        assert d.min() > 0.0, f"{values}: {d.min()}"
+        moved = np.linalg.norm(_evaluated(ob)[0] - rest, axis=1).max()
+        assert moved > 0.001, f"{values}: the cheek under the tear moved only {moved} m"

@@ -1,0 +1,281 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Shedding tears ("Pattern functions and tears", §4.2) as objects: a tear that runs down a
+path on the skin, built once in NumPy (``core.tears.Tear``) and then left to Blender:
+
+- a Surface Deform modifier binds it to the skin, so it follows the face as it deforms;
+- a Geometry Nodes group reveals it with the scene time, ``h = s + c t`` (step five): over
+  the head, the last ``Head`` before ``h``, the tear narrows to a round tip (a quarter
+  circle) and its top is lowered onto its bottom (``1 - smoothstep``); everything ahead of
+  the head is removed.
+
+So it animates and renders with no Python per frame (and on a farm with no add-on)."""
+
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+from ..core import mesh as core_mesh
+from ..core import tears
+from . import meshio, surface
+from .nodes import Builder
+from .nodes import ensure_group as ensure_group_of
+from .patterns import face_unit
+from .tears import TearError, set_input, water_material
+
+GROUP_NAME = "Shedding Tear"
+MODIFIER_NAME = "Shedding Tear"
+FOLLOW_NAME = "Follow Skin"
+ARC_ATTR = "tear_arc"  # the arc length along the path under each vertex, scene units
+PARTNER_ATTR = "tear_partner"  # the bottom vertex under each vertex
+CENTRE_ATTR = "tear_centre"  # the vertex at the middle of each vertex's row, on its own sheet
+VERSION = 1
+ACROSS = 9  # points across the tear
+ROWS_PER_WIDTH = 4  # rows along the path per tear width
+GAP = 0.04  # the bottom's height over the skin, per tear width: above the chords across facets
+INPUTS = (  # name, default, min, max, tooltip
+    ("Shown", 0.0, 0.0, 1e3, "How much of its path the tear covers when it starts (the formula's s), "
+     "in scene units"),
+    ("Speed", 0.01, 0.0, 1e3, "How fast the tear runs down its path (the formula's c), in scene units per "
+     "second"),
+    ("Head", 0.003, 1e-6, 1e3, "The length of the tear's rounded head, in scene units"),
+    ("Start", 0.0, -1e6, 1e6, "When the tear starts to run, in seconds of scene time"),
+    ("Every", 0.0, 0.0, 1e6, "Run again every so many seconds, a running cycle; 0: run once and stay"),
+)
+
+
+def _build(ng):
+    ng.interface.clear()
+    ng.nodes.clear()
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    for name, default, lo, hi, tip in INPUTS:
+        s = ng.interface.new_socket(name, in_out="INPUT", socket_type="NodeSocketFloat")
+        s.default_value, s.min_value, s.max_value, s.description = default, lo, hi, tip
+    b = Builder(ng)
+    gin = b.node("NodeGroupInput")
+    i = gin.outputs
+    b.x = 200
+    arc = b.node("GeometryNodeInputNamedAttribute", data_type="FLOAT")
+    arc.inputs["Name"].default_value = ARC_ATTR
+    since = b.math("SUBTRACT", b.node("GeometryNodeInputSceneTime").outputs["Seconds"], i["Start"])
+    # the cycle: since - Every floor(since / Every); Blender's divide gives 0 for Every = 0
+    tau = b.math("SUBTRACT", since, b.math("MULTIPLY", i["Every"],
+                                           b.math("FLOOR", b.math("DIVIDE", since, i["Every"]))))
+    b.x = 400
+    h = b.math("MULTIPLY_ADD", i["Speed"], tau, i["Shown"])  # h = s + c t
+    started = b.math("GREATER_THAN", since, -1e-6)
+    h = b.math("MULTIPLY_ADD", b.math("ADD", h, 1.0), started, -1.0)  # before Start: -1, nothing shows
+    b.x = 600
+    into = b.node("ShaderNodeMapRange", data_type="FLOAT", clamp=True)  # 0 behind the head, 1 at h
+    b.link(arc.outputs["Attribute"], into.inputs["Value"])
+    b.link(b.math("SUBTRACT", h, i["Head"]), into.inputs["From Min"])
+    b.link(h, into.inputs["From Max"])
+    x = into.outputs["Result"]
+    thick = b.math("SUBTRACT", 1.0, b.math("MULTIPLY", b.math("MULTIPLY", x, x),
+                                           b.math("SUBTRACT", 3.0, b.math("MULTIPLY", x, 2.0))))
+    wide = b.math("SQRT", b.math("MAXIMUM", b.math("SUBTRACT", 1.0, b.math("MULTIPLY", x, x)),
+                                 tears.OUTLINE_TIP ** 2))
+    b.x = 800
+    narrowed = _toward(b, i["Geometry"], CENTRE_ATTR, wide)
+    lowered = _toward(b, narrowed, PARTNER_ATTR, thick)
+    # a face goes when none of its corners is behind the head (the mean of "behind" over
+    # the face is 0): the faces across the head stay, their front lowered onto the bottom
+    # (the comparison is made on the points, then averaged over each face)
+    behind = b.node("GeometryNodeFieldOnDomain", data_type="FLOAT", domain="POINT")
+    b.link(b.math("LESS_THAN", arc.outputs["Attribute"], h), behind.inputs[0])
+    on_face = b.node("GeometryNodeFieldOnDomain", data_type="FLOAT", domain="FACE")
+    b.link(behind.outputs[0], on_face.inputs[0])
+    b.x = 1000
+    delete = b.node("GeometryNodeDeleteGeometry", domain="FACE")
+    b.link(lowered, delete.inputs["Geometry"])
+    b.link(b.math("LESS_THAN", on_face.outputs[0], 1e-6), delete.inputs["Selection"])
+    gout = b.node("NodeGroupOutput")
+    b.link(delete.outputs[0], gout.inputs["Geometry"])
+
+
+def _toward(b, geometry, index_attr, keep):
+    """``geometry`` with each point moved toward the point whose index is its ``index_attr``,
+    keeping the ``keep`` fraction of the way (0: onto it)."""
+    index = b.node("GeometryNodeInputNamedAttribute", data_type="INT")
+    index.inputs["Name"].default_value = index_attr
+    position = b.node("GeometryNodeInputPosition").outputs[0]
+    there = b.node("GeometryNodeSampleIndex", data_type="FLOAT_VECTOR", domain="POINT")
+    b.link(geometry, there.inputs["Geometry"])
+    b.link(position, there.inputs["Value"])
+    b.link(index.outputs["Attribute"], there.inputs["Index"])
+    moved = b.vmath("ADD", there.outputs[0], b.vmath("SCALE", b.vmath("SUBTRACT", position, there.outputs[0]),
+                                                     scale=keep))
+    setpos = b.node("GeometryNodeSetPosition")
+    b.link(geometry, setpos.inputs["Geometry"])
+    b.link(moved, setpos.inputs["Position"])
+    return setpos.outputs[0]
+
+
+def ensure_group():
+    return ensure_group_of(GROUP_NAME, "GeometryNodeTree", VERSION, _build, TearError)
+
+
+# --------------------------------------------------------------------------- the path
+def _world_to_face(face, points):
+    m = np.array(face.matrix_world.inverted_safe(), np.float64)
+    p = np.asarray(points, np.float64).reshape(-1, 3)
+    return p @ m[:3, :3].T + m[:3, 3]
+
+
+def curve_path(face, curve, depsgraph):
+    """The points (k, 3, face space) of the curve object ``curve``, from its start.  Raises
+    TearError unless it is one stroke."""
+    if curve.type != "CURVE" or len(curve.data.splines) != 1:
+        raise TearError(f'"{curve.name}" is not a curve of one stroke: draw the tear\'s path as one '
+                        "stroke (Curve > Draw, Depth: Surface)")
+    ev = curve.evaluated_get(depsgraph)
+    me = ev.to_mesh()
+    try:
+        pts = meshio.read_vectors(me, "position").astype(np.float64) if len(me.vertices) else np.zeros((0, 3))
+    finally:
+        ev.to_mesh_clear()
+    m = np.array(curve.matrix_world, np.float64)
+    return _world_to_face(face, pts @ m[:3, :3].T + m[:3, 3])
+
+
+def selected_faces_path(face, step):
+    """The middle line (k, 3, face space) of the face's selected faces and its half width,
+    from the end that is higher in the world (tears run down).  Raises TearError."""
+    me = face.data
+    sel = np.zeros(len(me.polygons), bool)
+    me.polygons.foreach_get("select", sel)
+    if not sel.any():
+        raise TearError(f'No face of "{face.name}" is selected: select the faces the tear runs over in '
+                        "Edit Mode, or select a curve drawn on the skin")
+    corner_vert, starts, sizes = meshio.read_polygons(me)
+    used = np.unique(corner_vert[np.repeat(sel, sizes)])
+    try:
+        path, half = tears.spine(meshio.read_vectors(me, "position")[used], step)
+    except ValueError as exc:
+        raise TearError(f"The selected faces do not give a path: {exc}") from None
+    up = np.array(face.matrix_world.to_3x3(), np.float64)[2]
+    if (path[-1] - path[0]) @ up > 0:  # from the higher end
+        path = path[::-1]
+    return path, half
+
+
+# --------------------------------------------------------------------------- the skin
+class Skin:
+    """The face's evaluated surface now (face space): what the tear is snapped to and what
+    its Surface Deform binds to, so the two agree."""
+
+    def __init__(self, face, depsgraph):
+        me = face.evaluated_get(depsgraph).data
+        self.positions = meshio.read_vectors(me, "position").astype(np.float64)
+        corner_vert, starts, sizes = meshio.read_polygons(me)
+        self.tris = core_mesh.fan_triangles(corner_vert, starts, sizes)
+        if len(self.tris) == 0:
+            raise TearError(f'"{face.name}" has no faces for a tear to run on')
+        self.normals = core_mesh.vertex_normals(self.positions, self.tris, len(self.positions))
+        self.snapper = surface.Snapper(self.positions, self.tris)
+
+    def snap(self, points):
+        """The closest skin points (k, 3), the skin's smooth unit normals there (k, 3) and the
+        distances (k,)."""
+        tri, bary, dist, loc = self.snapper.nearest(points)
+        n = np.einsum("kj,kjc->kc", bary, self.normals[self.tris[np.maximum(tri, 0)]])
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+        return loc, n, dist
+
+
+# --------------------------------------------------------------------------- the tear
+def build(skin, path, half_width, thickness, gap, roughness=0.3, seed=0, unit=1.0, head=None):
+    """The tear (``core.tears.Tear``, face space) along ``path`` (k, 3, face space) on ``skin``
+    (:class:`Skin`): the path snapped to the skin, subdivided, widened into the base strip and
+    snapped again.  ``unit``: scene units per face unit, for the messages.  Raises TearError
+    for a path off the skin or of one point."""
+    path = np.asarray(path, np.float64).reshape(-1, 3)
+    head = 2.0 * half_width if head is None else head
+    if len(path) < 2:
+        raise TearError(f"The tear's path has {len(path)} point{'s' * (len(path) != 1)}: it needs at "
+                        "least two, along the skin")
+    if half_width <= 0 or thickness <= 0:
+        raise TearError("A tear needs a width and a thickness above 0")
+    on, _n, dist = skin.snap(path)
+    far = max(4.0 * half_width, 0.02 * float(np.ptp(skin.positions, axis=0).max()))
+    if not np.isfinite(dist).all() or dist.max() > far:
+        raise TearError(f"The tear's path runs up to {dist.max() * unit:.3g} scene units off the skin (more "
+                        f"than {far * unit:.3g}): draw it on the face (Curve > Draw, Depth: Surface) or "
+                        "select the faces it runs over")
+    try:
+        path = tears.resample(on, 2.0 * half_width / ROWS_PER_WIDTH)
+    except ValueError as exc:
+        raise TearError(f"The tear's path is too short: {exc}") from None
+    if len(path) < 3:
+        raise TearError("The tear's path is shorter than its width: draw a longer path")
+    path, normals, _d = skin.snap(path)
+    try:
+        base, arc, across = tears.strip(path, normals, half_width, ACROSS, head=head)
+    except ValueError as exc:
+        raise TearError(f"The tear's path cannot carry a tear: {exc}") from None
+    base, base_normals, _d = skin.snap(base)
+    return tears.Tear(base, base_normals, across, arc, len(path), half_width, thickness, gap,
+                      roughness=roughness, seed=seed, head=head)
+
+
+def _mesh(name, tear, unit):
+    me = bpy.data.meshes.new(name)
+    quads = np.asarray(tear.quads, np.int32)
+    me.vertices.add(len(tear.positions))
+    me.vertices.foreach_set("co", np.ascontiguousarray(tear.positions, np.float32).ravel())
+    me.loops.add(quads.size)
+    me.loops.foreach_set("vertex_index", quads.ravel())
+    me.polygons.add(len(quads))
+    me.polygons.foreach_set("loop_start", np.arange(0, quads.size, 4, dtype=np.int32))
+    me.update()
+    me.attributes.new(ARC_ATTR, "FLOAT", "POINT").data.foreach_set(
+        "value", np.ascontiguousarray(tear.arc * unit, np.float32))
+    for name, index in ((PARTNER_ATTR, tear.partner), (CENTRE_ATTR, tear.centre)):
+        att = me.attributes.new(name, "INT", "POINT")
+        att.data.foreach_set("value", np.ascontiguousarray(index, np.int32))
+    me.shade_smooth()
+    return me
+
+
+def _bind(context, ob, mod):
+    with context.temp_override(object=ob, active_object=ob):
+        bpy.ops.object.surfacedeform_bind(modifier=mod.name)
+    context.evaluated_depsgraph_get().update()  # the bind happens on the next evaluation
+    return mod.is_bound
+
+
+def add_shedding_tear(context, face, path, half_width, thickness, gap, roughness=0.3, seed=0,
+                      duration=None, progress=None, **values):
+    """A new shedding tear object along ``path`` (k, 3, face space) on ``face``, bound to its
+    skin as it is now, revealed by the scene time.  Lengths in face units; ``duration``: the
+    seconds it takes to run its path (sets Speed); ``values``: the reveal group's inputs by
+    name (Shown, Speed, Head, Start, Every), in scene units and seconds; ``progress``: a
+    :class:`..progress.Progress`.  Raises TearError."""
+    say = progress or (lambda *_a: None)
+    unit = face_unit(face)
+    dg = context.evaluated_depsgraph_get()
+    tear = build(Skin(face, dg), path, half_width, thickness, gap, roughness, seed, unit)
+    say(0.6, "binding it to the skin")
+    me = _mesh(f"{face.name} Tear", tear, unit)
+    me.materials.append(water_material())
+    ob = bpy.data.objects.new(f"{face.name} Tear", me)
+    for coll in face.users_collection:
+        coll.objects.link(ob)
+    ob.parent = face  # its mesh is in the face's space
+    ob.matrix_parent_inverse = Matrix.Identity(4)
+    follow = ob.modifiers.new(FOLLOW_NAME, "SURFACE_DEFORM")
+    follow.target = face
+    if not _bind(context, ob, follow):
+        bpy.data.objects.remove(ob)
+        bpy.data.meshes.remove(me)
+        raise TearError(f'The tear could not be bound to "{face.name}" (Surface Deform: '
+                        "the face needs clean, non-overlapping faces)")
+    mod = ob.modifiers.new(MODIFIER_NAME, "NODES")
+    mod.node_group = ensure_group()
+    values.setdefault("Head", 2.0 * half_width * unit)
+    if duration is not None and "Speed" not in values:
+        values["Speed"] = tear.length * unit / max(float(duration), 1e-6)
+    for name, value in values.items():
+        set_input(mod, name, float(value))
+    ob["ewrinkles_tear_length"] = tear.length * unit
+    return ob
