@@ -33,7 +33,10 @@ Prints one JSON line, ``{"patterns_frame_ms": ..., "patterns": {...}}``:
     after the none blocks (0), and ``heights_ms``: ``core.patterns.heights`` alone for all
     the layers (the median over the timed frames' values).
     ``layers_ms`` and ``tears_ms``: the same median of (layers - none) and of (all - layers),
-    the two parts of the figure; ``tear_verts``: the tears' vertices.
+    the two parts of the figure; ``tear_verts``: the tears' vertices.  ``combine_ms``: the
+    output stage's arithmetic alone for the layers' heights (the normals over the raised
+    vertices' triangles and the sum); with ``heights_ms`` it is the NumPy floor of the
+    layers' share.
 """
 
 import argparse
@@ -72,6 +75,28 @@ def places(lm):
     pouch = eye + np.array([0.0, 0.0, -0.5 * (brow[2] - eye[2])])
     return [0.5 * (g + hair), corner, mirror(corner), cheek, mirror(cheek), g, dimple, mirror(dimple),
             pouch, mirror(pouch)]
+
+
+def combine_floor(face, footprint, heights):
+    """The output stage's arithmetic alone for the layers' heights (``core.combine`` with
+    one footprint: the normals over the raised vertices' triangles and the sum), median ms:
+    with the heights, the NumPy floor of the layers' frame."""
+    from wrinkle_addon.core import combine, mesh
+    from wrinkle_addon.glue import meshio
+
+    me = face.data
+    skin = meshio.read_vectors(me, "position")
+    corner, starts, sizes = meshio.read_polygons(me)
+    plan = combine.build(len(skin), mesh.fan_triangles(corner, starts, sizes),
+                         [combine.Footprint(height_verts=np.asarray(footprint, np.int64))])
+    part = combine.Contribution(height=np.asarray(heights, np.float32).reshape(-1)[:len(footprint)])
+    out = np.zeros_like(skin)
+    times = []
+    for _ in range(50):
+        t = time.perf_counter()
+        combine.combine(plan, skin, [part], out)
+        times.append(time.perf_counter() - t)
+    return times and float(np.median(times) * 1000.0)
 
 
 def add_tears(face, lm, count):
@@ -158,6 +183,7 @@ def main(argv=None):
         core.heights(static.plan, values)
         ht.append(time.perf_counter() - t)
     detail["heights_ms"] = fu.ms(ht)
+    detail["combine_ms"] = combine_floor(face, static.plan.footprint, core.heights(static.plan, values))
     configs = ("none", "layers", "all")
     times = {c: [] for c in configs}
     peak = {c: [] for c in configs}

@@ -26,8 +26,9 @@ def _spots(lm):
     """Where each close-up looks (face space) and how wide it sees (face units)."""
     eye, mouth, g = (np.asarray(lm[k], float) for k in ("eye_L", "mouth_corner_L", "glabella"))
     d = eye[2] - mouth[2]
+    at = patterns.places(lm)
     return {
-        "smile": (0.5 * (eye + mouth) + np.array([0.35 * d, 0.0, 0.0]), 1.35 * d),
+        "smile": (0.5 * (at["EYE_CORNER"] + at["DIMPLE"]), 1.25 * d),
         "frown": (np.array([g[0], g[1], 0.5 * (g[2] + eye[2])]), 0.9 * d),
         "tear": (0.5 * (eye + mouth) + np.array([0.15 * d, 0.0, 0.0]), 1.2 * d),
     }

@@ -143,6 +143,8 @@ def build_ict(view="front"):
     add_layers(face, data["landmarks"], {"EYE_CORNER": ("SHAPE_KEY", "eyeSquint_L"),
                                          "DIMPLE": ("SHAPE_KEY", "mouthSmile_L"),
                                          "FROWN": ("SHAPE_KEY", "browDown_L")})
+    rigging.activate(face)
+    assert bpy.ops.wrinkle.refine() == {"FINISHED"}  # the scan is too coarse for the furrows
     rigging.key_shape_keys(face, {1: {}, 20: SMILE, 40: FROWN})
     add_tear(face, data["landmarks"], 30)
     add_shedding_tear(face, data["landmarks"], 1, 1.6)

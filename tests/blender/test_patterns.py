@@ -297,3 +297,28 @@ def heights_of(face):
     ev.attributes["position"].data.foreach_get("vector", pos)
     ev.attributes["wrinkle_skin"].data.foreach_get("vector", skin)
     return np.linalg.norm((pos - skin).reshape(-1, 3), axis=1)
+
+
+def test_refine_splits_the_edges_a_layer_cannot_resolve_and_only_in_its_region():
+    """Refine Wrinkling Regions on a face with a crow's-feet layer and no muscle: the edges in
+    the layer's region end up shorter than its furrow over Edges per Half Cycle; the rest of
+    the face is untouched."""
+    face = _face()
+    lay = _add(face, "EYE_CORNER")
+    lay.sharpness = 12.0  # narrow furrows: the patch's 2 mm edges are too long for them
+    before = len(face.data.vertices)
+    assert bpy.ops.wrinkle.refine(edges_per_half_cycle=3.0) == {"FINISHED"}
+    assert len(face.data.vertices) > before
+    rest = _rest(face)
+    edges = np.array([e.vertices[:] for e in face.data.edges])
+    length = np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1)
+    centre = np.array(face.matrix_world.inverted() @ lay.frame.matrix_world.translation)
+    dist = np.linalg.norm(rest[edges].mean(axis=1) - centre, axis=1)
+    step = patterns.half_cycle("EYE_CORNER", lay.time, lay.depth, lay.sharpness, lay.count)
+    scale = glue.to_frame(face, lay.frame)[1]
+    inside = dist < 0.9 * lay.radius
+    assert length[inside].max() <= step * scale / 3.0 + 1e-9
+    grid = max(scenes.WIDTH / 69, scenes.HEIGHT / 39)
+    assert np.isclose(length[dist > 1.5 * lay.radius].max(), grid, rtol=1e-3)  # not split there
+    assert bpy.ops.wrinkle.refine(edges_per_half_cycle=3.0) == {"FINISHED"}  # nothing more to do
+    assert len(face.data.vertices) == len(rest)

@@ -96,9 +96,9 @@ def test_the_tear_runs_down_its_path_follows_the_skin_and_never_enters_it():
     curve = _curve(_meridian())
     ob = _add(face, curve, duration=2.0, width=0.015)
     assert ob.parent == face
-    follow, reveal = ob.modifiers
-    assert follow.type == "SURFACE_DEFORM" and follow.is_bound and follow.target == face
+    (reveal,) = ob.modifiers
     assert reveal.node_group.name == shedding.GROUP_NAME
+    assert tears.get_input(reveal, "Skin") == face
     assert ob.data.materials[0].name == tears.MATERIAL_NAME
     length = ob["ewrinkles_tear_length"]
     assert length == pytest.approx(0.08, rel=0.02)  # the meridian from 0.4 to 1.2 rad
@@ -162,6 +162,18 @@ def test_selected_faces_give_the_path_from_their_higher_end():
     assert co[arc.argmin(), 2] > co[arc.argmax(), 2] + 0.03  # runs down
     assert np.ptp(co[:, 0]) == pytest.approx(0.006, rel=0.25)  # as wide as the band
     assert (co[:, 1] < 0).all()  # on the skin's side (-Y), not behind it
+
+
+def test_a_face_whose_mesh_changed_leaves_the_tear_where_it_was_made():
+    face, _key = _sphere_face()
+    ob = _add(face, _curve(_meridian()), duration=0.5)
+    bpy.context.scene.frame_set(30)
+    made = _evaluated(ob)[0]
+    face.modifiers.new("Subdivision", "SUBSURF")  # the face's vertices are not the ones bound
+    bpy.context.view_layer.update()
+    co = _evaluated(ob)[0]
+    assert np.isfinite(co).all()
+    np.testing.assert_allclose(co, made, atol=1e-6)
 
 
 @pytest.mark.parametrize("case, message", [

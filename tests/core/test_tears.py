@@ -153,3 +153,21 @@ def test_a_tears_top_stands_on_its_partner_and_its_rows_have_a_centre():
     h_rough = np.linalg.norm(t.positions[top], axis=1)
     h_plain = np.linalg.norm(plain.positions[top], axis=1)
     assert (h_rough >= h_plain - 1e-12).all() and (h_rough > h_plain + 1e-6).any()
+
+
+def test_a_bound_point_comes_back_and_moves_rigidly_with_its_triangle():
+    rng = np.random.default_rng(5)
+    a, b, c = (rng.normal(size=(50, 3)) for _ in range(3))
+    p = (a + b + c) / 3 + rng.normal(scale=0.5, size=(50, 3))  # some beyond the edges
+    weights, lift = tears.bind(p, a, b, c)
+    np.testing.assert_allclose(weights.sum(axis=1), 1.0)
+    np.testing.assert_allclose(tears.bound(weights, lift, a, b, c), p, atol=1e-12)
+    q, _r = np.linalg.qr(rng.normal(size=(3, 3)))
+    q *= np.sign(np.linalg.det(q))  # a rotation
+    move = np.array([0.3, -1.0, 2.0])
+    np.testing.assert_allclose(tears.bound(weights, lift, a @ q.T + move, b @ q.T + move, c @ q.T + move),
+                               p @ q.T + move, atol=1e-12)
+    # stretched along the triangle's plane, the height over it stays
+    flat = np.zeros((1, 3))
+    w1, h1 = tears.bind([[0.2, 0.3, 0.05]], flat, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    np.testing.assert_allclose(tears.bound(w1, h1, flat, [[2.0, 0, 0]], [[0, 2.0, 0]]), [[0.4, 0.6, 0.05]])

@@ -125,6 +125,22 @@ PATTERNS = {
 }
 
 
+def half_cycle(kind, t, alpha=0.0, beta=0.0, gamma=0.0):
+    """How far (local units) it is from a furrow of pattern ``kind`` to the next bulge, what
+    the mesh must resolve: the eye corner's furrow is about ``2 / b`` wide, the cheek's
+    ripples ``pi / b`` apart, the frown's ``pi (b + t)`` at a unit from its axes, the
+    dimple about ``2 sqrt(t)`` across; the forehead's and the eye pouch's period is 2 pi."""
+    if kind == "EYE_CORNER":
+        return 2.0 / max(abs(float(beta)), _EPS)
+    if kind == "CHEEK":
+        return np.pi / max(abs(float(beta)), _EPS)
+    if kind == "FROWN":
+        return np.pi * max(abs(float(beta) + float(t)), _EPS)
+    if kind == "DIMPLE":
+        return 2.0 * np.sqrt(max(float(t), 1e-6))
+    return np.pi
+
+
 def pattern(kind, x, y, t, alpha=0.0, beta=0.0, gamma=0.0):
     """The height ``f(x, y, t)`` (local units) of pattern ``kind`` at local coordinates ``x``,
     ``y`` (arrays), time ``t``, parameters ``alpha``, ``beta``, ``gamma`` (those the pattern

@@ -205,6 +205,34 @@ def taper(arc, length, head):
     return reveal_profile(a, length, head) * (1.0 - reveal_profile(a, head, head))
 
 
+def bind(points, a, b, c):
+    """Bind ``points`` (k, 3) to the triangles ``(a, b, c)`` (k, 3 each), one per point: the
+    barycentric ``weights`` (k, 3) of each point's projection on its triangle's plane and its
+    ``lift`` (k,) along the triangle's unit normal ``(b - a) x (c - a)``, so that
+    ``weights . (a, b, c) + lift * normal`` gives the point back, and follows the triangle
+    as it moves (the weights are not clipped: a point beyond an edge stays where it is)."""
+    p, a, b, c = (np.asarray(v, np.float64).reshape(-1, 3) for v in (points, a, b, c))
+    n = np.cross(b - a, c - a)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    lift = np.einsum("ij,ij->i", p - a, n)
+    q = p - lift[:, None] * n
+    v0, v1, v2 = b - a, c - a, q - a
+    d00, d01, d11 = (np.einsum("ij,ij->i", x, y) for x, y in ((v0, v0), (v0, v1), (v1, v1)))
+    d20, d21 = np.einsum("ij,ij->i", v2, v0), np.einsum("ij,ij->i", v2, v1)
+    den = d00 * d11 - d01 * d01
+    den = np.where(np.abs(den) > 1e-300, den, 1.0)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    return np.stack([1.0 - v - w, v, w], 1), lift
+
+
+def bound(weights, lift, a, b, c):
+    """The points bound by :func:`bind` on the triangles ``(a, b, c)`` as they are now."""
+    n = np.cross(b - a, c - a)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    return weights[:, :1] * a + weights[:, 1:2] * b + weights[:, 2:] * c + lift[:, None] * n
+
+
 class Tear:
     """A shedding tear's mesh (steps one to four) on its base (:func:`strip`, ``k`` rows,
     ``half_width``): ``positions`` (V, 3), ``quads`` (F, 4), ``arc`` (V,) the arc length

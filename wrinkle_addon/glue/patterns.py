@@ -3,6 +3,8 @@
 ``core.patterns``, and what the operators do (add at the cursor or the selection, mirror,
 apply as a shape key)."""
 
+from types import SimpleNamespace
+
 import bpy
 import numpy as np
 from mathutils import Matrix, Vector
@@ -19,9 +21,9 @@ COLLECTION_NAME = "Wrinkle Pattern Frames"
 # on a head of any size (a furrow 0.3-2 mm deep on a 25 cm head).
 KIND_DEFAULTS = {
     "FOREHEAD": {"unit": 0.008, "radius": 0.16, "depth": -0.25},
-    "EYE_CORNER": {"unit": 0.06, "radius": 0.08, "depth": -0.05},
+    "EYE_CORNER": {"unit": 0.06, "radius": 0.08, "depth": -0.07, "sharpness": 10.0},
     "CHEEK": {"unit": 0.03, "radius": 0.08, "depth": -0.04},
-    "FROWN": {"unit": 0.02, "radius": 0.05, "depth": -0.12},
+    "FROWN": {"unit": 0.02, "radius": 0.05, "depth": -0.2, "spacing": 0.45},
     "DIMPLE": {"unit": 0.04, "radius": 0.04, "depth": 0.11},
     "EYE_POUCH": {"unit": 0.01, "radius": 0.06, "flatness": 16.0},
 }
@@ -90,6 +92,35 @@ def build_layer(face, mesh, lay):
     if keep is not None:
         weight = weight * keep
     return patterns.layer(lay.kind, local, rest, mesh.edges, weight, lay.fraction, lay.seed, scale)
+
+
+def refine_need(face, factor, scene):
+    """The pattern layers' refinement rule for ``glue.muscles.refine.refine``: a callable
+    ``(rest, edges) -> indices`` of the edges in a layer's region longer than its
+    ``core.patterns.half_cycle`` over ``factor``, or None when the face has no layer to
+    show.  Layers that cannot be built (no frame, an empty group) ask for nothing."""
+    live = [lay for lay in stack(face).layers if lay.show_viewport or lay.show_render]
+    if not live:
+        return None
+
+    def need(rest, edges):
+        mesh = SimpleNamespace(rest=rest, edges=edges)
+        limit = np.full(len(edges), np.inf)
+        for lay in live:
+            try:
+                built = build_layer(face, mesh, lay)
+            except PatternError:
+                continue
+            t, _strength, alpha, beta, gamma = values(face, lay, scene)
+            inside = np.zeros(len(rest), bool)
+            inside[built.verts] = True
+            near = inside[edges[:, 0]] | inside[edges[:, 1]]
+            step = patterns.half_cycle(lay.kind, t, alpha, beta, gamma) * built.scale / factor
+            limit[near] = np.minimum(limit[near], step)
+        d = rest[edges[:, 1]] - rest[edges[:, 0]]
+        return np.flatnonzero(np.sqrt(np.einsum("ij,ij->i", d, d)) > limit)
+
+    return need
 
 
 def face_unit(face):

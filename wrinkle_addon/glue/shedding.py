@@ -2,8 +2,12 @@
 """Shedding tears ("Pattern functions and tears", §4.2) as objects: a tear that runs down a
 path on the skin, built once in NumPy (``core.tears.Tear``) and then left to Blender:
 
-- a Surface Deform modifier binds it to the skin, so it follows the face as it deforms;
-- a Geometry Nodes group reveals it with the scene time, ``h = s + c t`` (step five): over
+- one Geometry Nodes group binds it to the skin, so it follows the face as it deforms: each
+  vertex keeps the skin triangle under it, its barycentric weights there and its height
+  along the triangle's normal (``core.tears.bind``), and is put back on that triangle of the
+  face's evaluated mesh every frame (Surface Deform refuses faces with concave polygons,
+  which real meshes have);
+- the same group reveals it with the scene time, ``h = s + c t`` (step five): over
   the head, the last ``Head`` before ``h``, the tear narrows to a round tip (a quarter
   circle) and its top is lowered onto its bottom (``1 - smoothstep``); everything ahead of
   the head is removed.
@@ -24,7 +28,9 @@ from .tears import TearError, set_input, water_material
 
 GROUP_NAME = "Shedding Tear"
 MODIFIER_NAME = "Shedding Tear"
-FOLLOW_NAME = "Follow Skin"
+SKIN_ATTRS = ("tear_skin_a", "tear_skin_b", "tear_skin_c")  # the skin triangle's vertices
+WEIGHTS_ATTR = "tear_skin_weights"  # the barycentric weights there
+LIFT_ATTR = "tear_skin_lift"  # the height along the triangle's normal
 ARC_ATTR = "tear_arc"  # the arc length along the path under each vertex, scene units
 PARTNER_ATTR = "tear_partner"  # the bottom vertex under each vertex
 CENTRE_ATTR = "tear_centre"  # the vertex at the middle of each vertex's row, on its own sheet
@@ -51,12 +57,17 @@ def _build(ng):
     for name, default, lo, hi, tip in INPUTS:
         s = ng.interface.new_socket(name, in_out="INPUT", socket_type="NodeSocketFloat")
         s.default_value, s.min_value, s.max_value, s.description = default, lo, hi, tip
+    skin = ng.interface.new_socket("Skin", in_out="INPUT", socket_type="NodeSocketObject")
+    skin.description = "The face the tear runs on; it follows its deformation"
+    count = ng.interface.new_socket("Skin Vertices", in_out="INPUT", socket_type="NodeSocketInt")
+    count.description = ("The face's vertex count when the tear was made; if the face's mesh changes, the "
+                         "tear stays where it was made")
     b = Builder(ng)
     gin = b.node("NodeGroupInput")
     i = gin.outputs
     b.x = 200
-    arc = b.node("GeometryNodeInputNamedAttribute", data_type="FLOAT")
-    arc.inputs["Name"].default_value = ARC_ATTR
+    on_skin = _bound(b, i["Geometry"], i["Skin"], i["Skin Vertices"])
+    arc = _named(b, ARC_ATTR, "FLOAT")
     since = b.math("SUBTRACT", b.node("GeometryNodeInputSceneTime").outputs["Seconds"], i["Start"])
     # the cycle: since - Every floor(since / Every); Blender's divide gives 0 for Every = 0
     tau = b.math("SUBTRACT", since, b.math("MULTIPLY", i["Every"],
@@ -67,7 +78,7 @@ def _build(ng):
     h = b.math("MULTIPLY_ADD", b.math("ADD", h, 1.0), started, -1.0)  # before Start: -1, nothing shows
     b.x = 600
     into = b.node("ShaderNodeMapRange", data_type="FLOAT", clamp=True)  # 0 behind the head, 1 at h
-    b.link(arc.outputs["Attribute"], into.inputs["Value"])
+    b.link(arc, into.inputs["Value"])
     b.link(b.math("SUBTRACT", h, i["Head"]), into.inputs["From Min"])
     b.link(h, into.inputs["From Max"])
     x = into.outputs["Result"]
@@ -76,13 +87,13 @@ def _build(ng):
     wide = b.math("SQRT", b.math("MAXIMUM", b.math("SUBTRACT", 1.0, b.math("MULTIPLY", x, x)),
                                  tears.OUTLINE_TIP ** 2))
     b.x = 800
-    narrowed = _toward(b, i["Geometry"], CENTRE_ATTR, wide)
+    narrowed = _toward(b, on_skin, CENTRE_ATTR, wide)
     lowered = _toward(b, narrowed, PARTNER_ATTR, thick)
     # a face goes when none of its corners is behind the head (the mean of "behind" over
     # the face is 0): the faces across the head stay, their front lowered onto the bottom
     # (the comparison is made on the points, then averaged over each face)
     behind = b.node("GeometryNodeFieldOnDomain", data_type="FLOAT", domain="POINT")
-    b.link(b.math("LESS_THAN", arc.outputs["Attribute"], h), behind.inputs[0])
+    b.link(b.math("LESS_THAN", arc, h), behind.inputs[0])
     on_face = b.node("GeometryNodeFieldOnDomain", data_type="FLOAT", domain="FACE")
     b.link(behind.outputs[0], on_face.inputs[0])
     b.x = 1000
@@ -93,16 +104,56 @@ def _build(ng):
     b.link(delete.outputs[0], gout.inputs["Geometry"])
 
 
+def _named(b, name, data_type):
+    n = b.node("GeometryNodeInputNamedAttribute", data_type=data_type)
+    n.inputs["Name"].default_value = name
+    return n.outputs["Attribute"]
+
+
+def _bound(b, geometry, skin_object, skin_count):
+    """``geometry`` with each point put back on its skin triangle of the face as it is now
+    (``core.tears.bound``); unchanged when the face's vertex count is not ``skin_count``."""
+    info = b.node("GeometryNodeObjectInfo", transform_space="RELATIVE")
+    b.link(skin_object, info.inputs["Object"])
+    corners = []
+    for name in SKIN_ATTRS:
+        at = b.node("GeometryNodeSampleIndex", data_type="FLOAT_VECTOR", domain="POINT")
+        b.link(info.outputs["Geometry"], at.inputs["Geometry"])
+        b.link(b.node("GeometryNodeInputPosition").outputs[0], at.inputs["Value"])
+        b.link(_named(b, name, "INT"), at.inputs["Index"])
+        corners.append(at.outputs[0])
+    a, c1, c2 = corners
+    normal = b.vmath("NORMALIZE", b.vmath("CROSS_PRODUCT", b.vmath("SUBTRACT", c1, a),
+                                          b.vmath("SUBTRACT", c2, a)))
+    w = b.separate(_named(b, WEIGHTS_ATTR, "FLOAT_VECTOR"))
+    p = b.vmath("SCALE", a, scale=w[0])
+    p = b.vmath("ADD", p, b.vmath("SCALE", c1, scale=w[1]))
+    p = b.vmath("ADD", p, b.vmath("SCALE", c2, scale=w[2]))
+    p = b.vmath("ADD", p, b.vmath("SCALE", normal, scale=_named(b, LIFT_ATTR, "FLOAT")))
+    setpos = b.node("GeometryNodeSetPosition")
+    b.link(geometry, setpos.inputs["Geometry"])
+    b.link(p, setpos.inputs["Position"])
+    size = b.node("GeometryNodeAttributeDomainSize", component="MESH")
+    b.link(info.outputs["Geometry"], size.inputs["Geometry"])
+    same = b.node("FunctionNodeCompare", data_type="INT", operation="EQUAL")
+    first, second = (s for s in same.inputs if s.type == "INT")
+    b.link(size.outputs["Point Count"], first)
+    b.link(skin_count, second)
+    switch = b.node("GeometryNodeSwitch", input_type="GEOMETRY")
+    b.link(same.outputs["Result"], switch.inputs["Switch"])
+    b.link(geometry, switch.inputs["False"])
+    b.link(setpos.outputs[0], switch.inputs["True"])
+    return switch.outputs[0]
+
+
 def _toward(b, geometry, index_attr, keep):
     """``geometry`` with each point moved toward the point whose index is its ``index_attr``,
     keeping the ``keep`` fraction of the way (0: onto it)."""
-    index = b.node("GeometryNodeInputNamedAttribute", data_type="INT")
-    index.inputs["Name"].default_value = index_attr
     position = b.node("GeometryNodeInputPosition").outputs[0]
     there = b.node("GeometryNodeSampleIndex", data_type="FLOAT_VECTOR", domain="POINT")
     b.link(geometry, there.inputs["Geometry"])
     b.link(position, there.inputs["Value"])
-    b.link(index.outputs["Attribute"], there.inputs["Index"])
+    b.link(_named(b, index_attr, "INT"), there.inputs["Index"])
     moved = b.vmath("ADD", there.outputs[0], b.vmath("SCALE", b.vmath("SUBTRACT", position, there.outputs[0]),
                                                      scale=keep))
     setpos = b.node("GeometryNodeSetPosition")
@@ -161,8 +212,8 @@ def selected_faces_path(face, step):
 
 # --------------------------------------------------------------------------- the skin
 class Skin:
-    """The face's evaluated surface now (face space): what the tear is snapped to and what
-    its Surface Deform binds to, so the two agree."""
+    """The face's evaluated surface now (face space): what the tear is snapped and bound to,
+    as the reveal group reads it on every frame."""
 
     def __init__(self, face, depsgraph):
         me = face.evaluated_get(depsgraph).data
@@ -218,7 +269,7 @@ def build(skin, path, half_width, thickness, gap, roughness=0.3, seed=0, unit=1.
                       roughness=roughness, seed=seed, head=head)
 
 
-def _mesh(name, tear, unit):
+def _mesh(name, tear, unit, skin):
     me = bpy.data.meshes.new(name)
     quads = np.asarray(tear.quads, np.int32)
     me.vertices.add(len(tear.positions))
@@ -230,48 +281,43 @@ def _mesh(name, tear, unit):
     me.update()
     me.attributes.new(ARC_ATTR, "FLOAT", "POINT").data.foreach_set(
         "value", np.ascontiguousarray(tear.arc * unit, np.float32))
-    for name, index in ((PARTNER_ATTR, tear.partner), (CENTRE_ATTR, tear.centre)):
+    tri = skin.tris[skin.snapper.nearest(tear.positions)[0]]
+    weights, lift = tears.bind(tear.positions, *(skin.positions[tri[:, k]] for k in range(3)))
+    ints = ((PARTNER_ATTR, tear.partner), (CENTRE_ATTR, tear.centre)) + tuple(zip(SKIN_ATTRS, tri.T))
+    for name, index in ints:
         att = me.attributes.new(name, "INT", "POINT")
         att.data.foreach_set("value", np.ascontiguousarray(index, np.int32))
+    me.attributes.new(WEIGHTS_ATTR, "FLOAT_VECTOR", "POINT").data.foreach_set(
+        "vector", np.ascontiguousarray(weights, np.float32).ravel())
+    me.attributes.new(LIFT_ATTR, "FLOAT", "POINT").data.foreach_set(
+        "value", np.ascontiguousarray(lift, np.float32))
     me.shade_smooth()
     return me
-
-
-def _bind(context, ob, mod):
-    with context.temp_override(object=ob, active_object=ob):
-        bpy.ops.object.surfacedeform_bind(modifier=mod.name)
-    context.evaluated_depsgraph_get().update()  # the bind happens on the next evaluation
-    return mod.is_bound
 
 
 def add_shedding_tear(context, face, path, half_width, thickness, gap, roughness=0.3, seed=0,
                       duration=None, progress=None, **values):
     """A new shedding tear object along ``path`` (k, 3, face space) on ``face``, bound to its
-    skin as it is now, revealed by the scene time.  Lengths in face units; ``duration``: the
+    evaluated skin as it is now, revealed by the scene time.  Lengths in face units; ``duration``: the
     seconds it takes to run its path (sets Speed); ``values``: the reveal group's inputs by
     name (Shown, Speed, Head, Start, Every), in scene units and seconds; ``progress``: a
     :class:`..progress.Progress`.  Raises TearError."""
     say = progress or (lambda *_a: None)
     unit = face_unit(face)
-    dg = context.evaluated_depsgraph_get()
-    tear = build(Skin(face, dg), path, half_width, thickness, gap, roughness, seed, unit)
+    skin = Skin(face, context.evaluated_depsgraph_get())
+    tear = build(skin, path, half_width, thickness, gap, roughness, seed, unit)
     say(0.6, "binding it to the skin")
-    me = _mesh(f"{face.name} Tear", tear, unit)
+    me = _mesh(f"{face.name} Tear", tear, unit, skin)
     me.materials.append(water_material())
     ob = bpy.data.objects.new(f"{face.name} Tear", me)
     for coll in face.users_collection:
         coll.objects.link(ob)
     ob.parent = face  # its mesh is in the face's space
     ob.matrix_parent_inverse = Matrix.Identity(4)
-    follow = ob.modifiers.new(FOLLOW_NAME, "SURFACE_DEFORM")
-    follow.target = face
-    if not _bind(context, ob, follow):
-        bpy.data.objects.remove(ob)
-        bpy.data.meshes.remove(me)
-        raise TearError(f'The tear could not be bound to "{face.name}" (Surface Deform: '
-                        "the face needs clean, non-overlapping faces)")
     mod = ob.modifiers.new(MODIFIER_NAME, "NODES")
     mod.node_group = ensure_group()
+    set_input(mod, "Skin", face)
+    set_input(mod, "Skin Vertices", len(skin.positions))
     values.setdefault("Head", 2.0 * half_width * unit)
     if duration is not None and "Speed" not in values:
         values["Speed"] = tear.length * unit / max(float(duration), 1e-6)

@@ -5,6 +5,7 @@ Every operator that changes data is undoable; bad input is reported with a
 clear message and the operator is cancelled, never a traceback.
 """
 
+import functools
 import math
 
 import bpy
@@ -23,6 +24,7 @@ from mathutils import Vector
 from ..core.muscles import landmark_finder, presets
 from ..glue import drivers, faces
 from ..glue import frame as pipeline
+from ..glue import patterns as pattern_layers
 from ..glue.bando import curves as bando_curves
 from ..glue.errors import WrinkleError
 from ..glue.muscles import landmarks, refine
@@ -304,11 +306,19 @@ class WRINKLE_OT_drive_contraction(bpy.types.Operator):
         return {"FINISHED"}
 
 
+def _union(needs):
+    """One refinement rule from several (the curves', the pattern layers'), or None."""
+    if not needs:
+        return None
+    return lambda rest, edges: functools.reduce(np.union1d, [need(rest, edges) for need in needs],
+                                                np.zeros(0, np.int64))
+
+
 class WRINKLE_OT_refine(bpy.types.Operator):
     """Split the edges where the wrinkles need it until every half wrinkle cycle of the
-    muscles spans at least the given number of edges, and the edges around the wrinkle curves
-    are short enough for their sharp furrows; new points follow the smooth surface (keeps
-    UVs, shape keys, vertex groups and materials)"""
+    muscles and of the pattern layers spans at least the given number of edges, and the edges
+    around the wrinkle curves are short enough for their sharp furrows; new points follow the
+    smooth surface (keeps UVs, shape keys, vertex groups and materials)"""
 
     bl_idname = "wrinkle.refine"
     bl_label = "Refine Wrinkling Regions"
@@ -331,14 +341,17 @@ class WRINKLE_OT_refine(bpy.types.Operator):
     def execute(self, context):
         face = _face(context)
         muscles = muscle_objects.live_muscles(face)
-        around_curves = bando_curves.refine_need(face)
-        if not muscles and around_curves is None:
-            raise WrinkleError("This face has no muscles and no wrinkle curves, so there is no "
+        factor = self.edges_per_half_cycle
+        extras = [need for need in (bando_curves.refine_need(face),
+                                    pattern_layers.refine_need(face, factor, context.scene))
+                  if need is not None]
+        if not muscles and not extras:
+            raise WrinkleError("This face has no muscles, wrinkle curves or pattern layers, so there is no "
                                "wrinkling region to refine")
         before = len(face.data.vertices)
         with Progress(context, "Refine Wrinkling Regions", total=refine.MAX_PASSES) as progress:
             result = refine.refine(face, muscles, self.edges_per_half_cycle, self.max_vertices,
-                                   progress=lambda i: progress(i, f"pass {i + 1}"), extra=around_curves)
+                                   progress=lambda i: progress(i, f"pass {i + 1}"), extra=_union(extras))
         after = len(face.data.vertices)
         if result.message:  # set only when the rule is still broken
             self.report({"WARNING"}, result.message)
