@@ -262,5 +262,5 @@ def test_refine_splits_the_edges_around_a_curve_only():
 def test_refine_without_muscles_or_curves_says_so():
     face = uv_face()
     bpy.context.view_layer.objects.active = face
-    with pytest.raises(RuntimeError, match="no muscles and no wrinkle curves"):
+    with pytest.raises(RuntimeError, match="no muscles, wrinkle curves or pattern layers"):
         bpy.ops.wrinkle.refine()

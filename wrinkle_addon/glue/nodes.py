@@ -32,6 +32,13 @@ def ensure_group(name, tree_type, version, build, error, key="ewrinkles_version"
     return ng
 
 
+def float_inputs(ng, specs):
+    """Add a float input to the group ``ng`` for each ``(name, default, min, max, tooltip)``."""
+    for name, default, lo, hi, tip in specs:
+        s = ng.interface.new_socket(name, in_out="INPUT", socket_type="NodeSocketFloat")
+        s.default_value, s.min_value, s.max_value, s.description = default, lo, hi, tip
+
+
 class Builder:
     """Small helpers to add shader math nodes in a column layout."""
 

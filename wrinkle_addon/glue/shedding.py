@@ -21,7 +21,7 @@ from mathutils import Matrix
 from ..core import mesh as core_mesh
 from ..core import tears
 from . import meshio, surface
-from .nodes import Builder
+from .nodes import Builder, float_inputs
 from .nodes import ensure_group as ensure_group_of
 from .patterns import face_unit
 from .tears import TearError, set_input, water_material
@@ -54,9 +54,7 @@ def _build(ng):
     ng.nodes.clear()
     ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
     ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    for name, default, lo, hi, tip in INPUTS:
-        s = ng.interface.new_socket(name, in_out="INPUT", socket_type="NodeSocketFloat")
-        s.default_value, s.min_value, s.max_value, s.description = default, lo, hi, tip
+    float_inputs(ng, INPUTS)
     skin = ng.interface.new_socket("Skin", in_out="INPUT", socket_type="NodeSocketObject")
     skin.description = "The face the tear runs on; it follows its deformation"
     count = ng.interface.new_socket("Skin Vertices", in_out="INPUT", socket_type="NodeSocketInt")

@@ -9,7 +9,7 @@ import bpy
 
 from ..core import tears
 from .errors import WrinkleError
-from .nodes import Builder, principled, use_nodes
+from .nodes import Builder, float_inputs, principled, use_nodes
 from .nodes import ensure_group as ensure_group_of
 
 GROUP_NAME = "Teardrop"
@@ -37,9 +37,7 @@ def _build(ng):
     ng.interface.clear()
     ng.nodes.clear()
     ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    for name, default, lo, hi, tip in INPUTS:
-        s = ng.interface.new_socket(name, in_out="INPUT", socket_type="NodeSocketFloat")
-        s.default_value, s.min_value, s.max_value, s.description = default, lo, hi, tip
+    float_inputs(ng, INPUTS)
     mat = ng.interface.new_socket("Material", in_out="INPUT", socket_type="NodeSocketMaterial")
     mat.description = "The tear's material (water)"
     b = Builder(ng)
