@@ -34,6 +34,8 @@ def draw_face_patterns(layout, context, face):
     row = layout.row(align=True)
     row.operator("wrinkle.add_teardrop", icon="MOD_FLUIDSIM")
     row.operator("wrinkle.add_shedding_tear", icon="MOD_OCEAN")
+    if st.layers:
+        layout.operator("wrinkle.refine", icon="MOD_SUBSURF")
     if not st.layers:
         return
     lay = st.layers[min(st.active, len(st.layers) - 1)]
