@@ -47,14 +47,14 @@ def _close_up(scene, face, centre, width):
 
 def cases():
     """(name, builder, close-up, frames) for each case; the ICT ones when the file exists."""
-    out = [("smile_procedural", lambda: patterns.build_procedural(), "smile", SMILE_FRAMES)]
+    out = [("smile_procedural", patterns.build_procedural, "smile", SMILE_FRAMES)]
     if patterns.available():
-        out += [("smile_ict", lambda: patterns.build_ict(), "smile", SMILE_FRAMES),
-                ("frown_ict", lambda: patterns.build_ict(), "frown", FROWN_FRAMES),
-                ("tear_ict", lambda: patterns.build_ict(), "tear", TEAR_FRAMES)]
+        out += [("smile_ict", patterns.build_ict, "smile", SMILE_FRAMES),
+                ("frown_ict", patterns.build_ict, "frown", FROWN_FRAMES),
+                ("tear_ict", patterns.build_ict, "tear", TEAR_FRAMES)]
     else:
-        out += [("frown_procedural", lambda: patterns.build_procedural(), "frown", FROWN_FRAMES),
-                ("tear_procedural", lambda: patterns.build_procedural(), "tear", TEAR_FRAMES)]
+        out += [("frown_procedural", patterns.build_procedural, "frown", FROWN_FRAMES),
+                ("tear_procedural", patterns.build_procedural, "tear", TEAR_FRAMES)]
     return out
 
 
