@@ -2,6 +2,7 @@
 selected faces), bound to the skin so it follows the face, revealed by the scene time with
 no Python per frame, and never inside the skin."""
 
+import textwrap
 from pathlib import Path
 
 import bpy
@@ -141,6 +142,46 @@ def test_the_tear_runs_down_its_path_follows_the_skin_and_never_enters_it():
         assert 0.0 < d.min() and d.max() < 0.015 * 0.2 * 2 * 0.5 * 2.0 + 0.005  # on the skin, not floating
     after, _a, _q, _n = _evaluated(ob)
     assert np.linalg.norm(after - before, axis=1).mean() > 0.005
+
+
+FARM_SCRIPT = textwrap.dedent("""
+    import sys
+    import bpy
+    import numpy as np
+    blend, out = sys.argv[-2], sys.argv[-1]
+    bpy.ops.wm.open_mainfile(filepath=blend)
+    assert "wrinkle_addon" not in sys.modules, "the add-on must not be loaded on the farm"
+    ob = next(o for o in bpy.data.objects if o.name.endswith(" Tear"))
+    for frame in (20, 40):
+        bpy.context.scene.frame_set(frame)
+        me = ob.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+        co = np.empty(len(me.vertices) * 3, np.float32)
+        me.vertices.foreach_get("co", co)
+        np.save(out + f"/farm_{frame}.npy", co.reshape(-1, 3))
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+""")
+
+
+def test_a_saved_tear_runs_and_follows_the_face_with_no_add_on(tmp_path):
+    """Saved and opened where the add-on is not installed (a render farm), the tear still
+    runs and follows the animated face, frame for frame as here."""
+    face, key = _sphere_face()
+    ob = _add(face, _curve(_meridian()), duration=1.5)
+    key.value = 0.0
+    key.keyframe_insert("value", frame=1)
+    key.value = 1.0
+    key.keyframe_insert("value", frame=40)
+    here = {}
+    for frame in (20, 40):
+        bpy.context.scene.frame_set(frame)
+        here[frame] = _evaluated(ob)[0]
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "shot.blend"))
+    scenes.run_on_farm(FARM_SCRIPT, tmp_path / "shot.blend", tmp_path)
+    for frame in (20, 40):
+        farm = np.load(tmp_path / f"farm_{frame}.npy")
+        assert farm.shape == here[frame].shape
+        np.testing.assert_allclose(farm, here[frame], atol=1e-6)
+    assert len(here[20]) < len(here[40])  # half way on frame 20, all of it on 40
 
 
 def test_selected_faces_give_the_path_from_their_higher_end():
