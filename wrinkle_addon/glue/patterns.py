@@ -9,7 +9,6 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
-from ..core import mesh as core_mesh
 from ..core import patterns
 from . import meshio, surface
 from .errors import WrinkleError
@@ -179,10 +178,7 @@ def surface_frame(face, point, normal, unit):
 def nearest_on_skin(face, point_world):
     """The closest point on the face's rest surface to ``point_world`` and the normal of the
     triangle it lies on, both in the face's space."""
-    me = face.data
-    rest = meshio.read_vectors(me, "position").astype(np.float64)
-    corner, starts, sizes = meshio.read_polygons(me)
-    tris = core_mesh.fan_triangles(corner, starts, sizes)
+    rest, tris = surface.triangles(face.data)
     if len(tris) == 0:
         raise PatternError(f'"{face.name}" has no faces to put a pattern on')
     local = np.array(face.matrix_world.inverted_safe() @ Vector(point_world), np.float64)

@@ -21,6 +21,7 @@ from mathutils import Matrix
 from ..core import mesh as core_mesh
 from ..core import tears
 from . import meshio, surface
+from .bando import curves as bando_curves
 from .nodes import Builder, float_inputs
 from .nodes import ensure_group as ensure_group_of
 from .patterns import face_unit
@@ -165,26 +166,13 @@ def ensure_group():
 
 
 # --------------------------------------------------------------------------- the path
-def _world_to_face(face, points):
-    m = np.array(face.matrix_world.inverted_safe(), np.float64)
-    p = np.asarray(points, np.float64).reshape(-1, 3)
-    return p @ m[:3, :3].T + m[:3, 3]
-
-
-def curve_path(face, curve, depsgraph):
+def curve_path(face, curve):
     """The points (k, 3, face space) of the curve object ``curve``, from its start.  Raises
     TearError unless it is one stroke."""
     if curve.type != "CURVE" or len(curve.data.splines) != 1:
         raise TearError(f'"{curve.name}" is not a curve of one stroke: draw the tear\'s path as one '
                         "stroke (Curve > Draw, Depth: Surface)")
-    ev = curve.evaluated_get(depsgraph)
-    me = ev.to_mesh()
-    try:
-        pts = meshio.read_vectors(me, "position").astype(np.float64) if len(me.vertices) else np.zeros((0, 3))
-    finally:
-        ev.to_mesh_clear()
-    m = np.array(curve.matrix_world, np.float64)
-    return _world_to_face(face, pts @ m[:3, :3].T + m[:3, 3])
+    return bando_curves.face_space_samples(curve, face)[0]
 
 
 def selected_faces_path(face, step):
@@ -214,30 +202,28 @@ class Skin:
     as the reveal group reads it on every frame."""
 
     def __init__(self, face, depsgraph):
-        me = face.evaluated_get(depsgraph).data
-        self.positions = meshio.read_vectors(me, "position").astype(np.float64)
-        corner_vert, starts, sizes = meshio.read_polygons(me)
-        self.tris = core_mesh.fan_triangles(corner_vert, starts, sizes)
+        self.positions, self.tris = surface.triangles(face.evaluated_get(depsgraph).data)
         if len(self.tris) == 0:
             raise TearError(f'"{face.name}" has no faces for a tear to run on')
         self.normals = core_mesh.vertex_normals(self.positions, self.tris, len(self.positions))
         self.snapper = surface.Snapper(self.positions, self.tris)
 
     def snap(self, points):
-        """The closest skin points (k, 3), the skin's smooth unit normals there (k, 3) and the
-        distances (k,)."""
+        """The closest skin points (k, 3), the skin's smooth unit normals there (k, 3), the
+        distances (k,) and the triangles they lie on (k,)."""
         tri, bary, dist, loc = self.snapper.nearest(points)
         n = np.einsum("kj,kjc->kc", bary, self.normals[self.tris[np.maximum(tri, 0)]])
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-        return loc, n, dist
+        return loc, n, dist, tri
 
 
 # --------------------------------------------------------------------------- the tear
 def build(skin, path, half_width, thickness, gap, roughness=0.3, seed=0, unit=1.0, head=None):
     """The tear (``core.tears.Tear``, face space) along ``path`` (k, 3, face space) on ``skin``
     (:class:`Skin`): the path snapped to the skin, subdivided, widened into the base strip and
-    snapped again.  ``unit``: scene units per face unit, for the messages.  Raises TearError
-    for a path off the skin or of one point."""
+    snapped again; with the skin triangle (k n,) under each base point.  ``unit``: scene units
+    per face unit, for the messages.  Raises TearError for a path off the skin or of one
+    point."""
     path = np.asarray(path, np.float64).reshape(-1, 3)
     head = 2.0 * half_width if head is None else head
     if len(path) < 2:
@@ -245,7 +231,7 @@ def build(skin, path, half_width, thickness, gap, roughness=0.3, seed=0, unit=1.
                         "least two, along the skin")
     if half_width <= 0 or thickness <= 0:
         raise TearError("A tear needs a width and a thickness above 0")
-    on, _n, dist = skin.snap(path)
+    on, _n, dist, _tri = skin.snap(path)
     far = max(4.0 * half_width, 0.02 * float(np.ptp(skin.positions, axis=0).max()))
     if not np.isfinite(dist).all() or dist.max() > far:
         raise TearError(f"The tear's path runs up to {dist.max() * unit:.3g} scene units off the skin (more "
@@ -257,17 +243,18 @@ def build(skin, path, half_width, thickness, gap, roughness=0.3, seed=0, unit=1.
         raise TearError(f"The tear's path is too short: {exc}") from None
     if len(path) < 3:
         raise TearError("The tear's path is shorter than its width: draw a longer path")
-    path, normals, _d = skin.snap(path)
+    path, normals, _d, _tri = skin.snap(path)
     try:
         base, arc, across = tears.strip(path, normals, half_width, ACROSS, head=head)
     except ValueError as exc:
         raise TearError(f"The tear's path cannot carry a tear: {exc}") from None
-    base, base_normals, _d = skin.snap(base)
-    return tears.Tear(base, base_normals, across, arc, len(path), half_width, thickness, gap,
+    base, base_normals, _d, base_tri = skin.snap(base)
+    tear = tears.Tear(base, base_normals, across, arc, len(path), half_width, thickness, gap,
                       roughness=roughness, seed=seed, head=head)
+    return tear, base_tri
 
 
-def _mesh(name, tear, unit, skin):
+def _mesh(name, tear, unit, skin, base_tri):
     me = bpy.data.meshes.new(name)
     quads = np.asarray(tear.quads, np.int32)
     me.vertices.add(len(tear.positions))
@@ -279,7 +266,7 @@ def _mesh(name, tear, unit, skin):
     me.update()
     me.attributes.new(ARC_ATTR, "FLOAT", "POINT").data.foreach_set(
         "value", np.ascontiguousarray(tear.arc * unit, np.float32))
-    tri = skin.tris[skin.snapper.nearest(tear.positions)[0]]
+    tri = skin.tris[base_tri[tear.partner]]  # every vertex on its base point's triangle
     weights, lift = tears.bind(tear.positions, *(skin.positions[tri[:, k]] for k in range(3)))
     ints = ((PARTNER_ATTR, tear.partner), (CENTRE_ATTR, tear.centre)) + tuple(zip(SKIN_ATTRS, tri.T))
     for name, index in ints:
@@ -303,9 +290,9 @@ def add_shedding_tear(context, face, path, half_width, thickness, gap, roughness
     say = progress or (lambda *_a: None)
     unit = face_unit(face)
     skin = Skin(face, context.evaluated_depsgraph_get())
-    tear = build(skin, path, half_width, thickness, gap, roughness, seed, unit)
+    tear, base_tri = build(skin, path, half_width, thickness, gap, roughness, seed, unit)
     say(0.6, "binding it to the skin")
-    me = _mesh(f"{face.name} Tear", tear, unit, skin)
+    me = _mesh(f"{face.name} Tear", tear, unit, skin, base_tri)
     me.materials.append(water_material())
     ob = bpy.data.objects.new(f"{face.name} Tear", me)
     for coll in face.users_collection:

@@ -82,6 +82,14 @@ def evaluated_skin(face, n, depsgraph=None):
     return meshio.read_vector_prefix(ev, name, n, np.empty((n, 3), np.float32))
 
 
+def triangles(me):
+    """The mesh's positions (N, 3) float64 and its fan triangles (T, 3): what a
+    :class:`Snapper` is built on."""
+    corner_vert, starts, sizes = meshio.read_polygons(me)
+    return (meshio.read_vectors(me, "position").astype(np.float64),
+            core_mesh.fan_triangles(corner_vert, starts, sizes))
+
+
 class Snapper:
     """Closest points on a face's rest surface: ``(T, 3)`` triangles of ``rest``."""
 

@@ -247,7 +247,7 @@ class WRINKLE_OT_add_shedding_tear(bpy.types.Operator):
                 if len(curves) != 1:
                     raise tears.TearError(f"Select one curve for the tear's path, with the face active "
                                           f"({len(curves)} selected)")
-                path = shedding.curve_path(face, curves[0], context.evaluated_depsgraph_get())
+                path = shedding.curve_path(face, curves[0])
             else:
                 path, half = shedding.selected_faces_path(face, half)
             progress(0.3, "building the tear")
