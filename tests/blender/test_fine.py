@@ -121,15 +121,14 @@ def _eval_modulation(ng, s, r):
         if node.type == "ATTRIBUTE":
             return s
         if node.type == "GROUP_INPUT":
-            return {"Rest Height": r, "Height 1": 0.0, "Height 2": 1.0, "Use Baked": 0.0}[src.name]
+            return {"Rest Height": r, "Distance": 1.0, "Use Baked": 0.0}[src.name]
         if node.type == "SEPARATE_COLOR":  # the farm bake's shrinkage, not used (Use Baked = 0)
             return 0.0
         args = [value(i) for i in node.inputs[: {"MULTIPLY_ADD": 3, "EXPONENT": 1}.get(node.operation, 2)]]
         return _OPS[node.operation](*args)
 
-    # the first term: (H1 - 1) M(s1) with H1 = 0 is -M(s1); the second has H2 = 1, so it is 0
-    bump = next(n for n in ng.nodes if n.type == "BUMP")
-    return -value(bump.inputs["Height"])
+    # the first term (H1 - 1) M(s1) is the first bump: height H1 - 1, distance Distance M(s1)
+    return value(ng.nodes["Bump 1"].inputs["Distance"])
 
 
 def test_no_uv_map_disables_carving():

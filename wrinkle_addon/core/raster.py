@@ -17,7 +17,7 @@ The wrinkle-map encodings built on these live in ``core.maps.uvmaps``.
 
 import numpy as np
 
-from . import mesh
+from . import checks, mesh
 
 _F = np.float32
 CHUNK_PIXELS = 1 << 20  # pixels written per chunk: about 16 + 8 C bytes of temporaries each
@@ -476,6 +476,9 @@ class _Adjacency:
         return self.bins.sum(x[:, self.src])
 
 
+MAX_BLUR_EDGES = 1_000_000  # a border wider than this many edges is refused (diffusion_time)
+
+
 def diffusion_time(softness, edge_length):
     """The time ``t`` of :func:`diffuse` that blurs a border over about ``softness``.
 
@@ -484,11 +487,20 @@ def diffusion_time(softness, edge_length):
     observed at an exponential time of mean t).  A border blurred with
     ``sigma = softness / 2`` ramps from 16 % to 84 % over ``softness``:
     ``t = sigma^2 / (2 e^2) = softness^2 / (8 e^2)``.
-    """
-    softness, edge_length = float(softness), float(edge_length)
-    if not (softness > 0 and edge_length > 0 and np.isfinite(softness / edge_length)):
+
+    0 for no softness, or an edge length of 0 (a mesh without edges: nothing to blur).
+    Raises ValueError for a negative or non-finite softness or edge length, and for a
+    border wider than ``MAX_BLUR_EDGES`` edges: :func:`diffuse` needs about ``sqrt(8 t)``
+    iterations, one per edge crossed, and stops at 2000."""
+    softness = checks.number("The border softness", softness, 0.0)
+    edge_length = checks.number("The edge length", edge_length, 0.0)
+    if softness == 0.0 or edge_length == 0.0:
         return 0.0
-    return softness * softness / (8.0 * edge_length * edge_length)
+    ratio = softness / edge_length  # not squared first: 1e-163 squared is 0
+    if not ratio <= MAX_BLUR_EDGES:
+        raise ValueError(f"A border {softness:g} wide is {ratio:.3g} edges of {edge_length:g} wide, "
+                         f"more than {MAX_BLUR_EDGES:,}: no blur can cross it. Use a smaller softness")
+    return ratio * ratio / 8.0
 
 
 def diffuse(values, edges, t, *, tol=1e-6, max_iterations=2000):

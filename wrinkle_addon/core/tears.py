@@ -22,7 +22,11 @@ the drop's top at birth, so the drop hangs from where it forms and falls at spee
 ``a``, ``b`` (scene units) are the drop's sizes, ``l`` (scene units per second) its speed.
 """
 
+import math
+
 import numpy as np
+
+from . import checks
 
 T0 = 1.2  # t at the drop's birth: t + cos(u) >= 0.2 > 0
 OUTLINE_TIP = 0.2  # a shedding tear's tip keeps this fraction of its width
@@ -67,6 +71,9 @@ def reveal_profile(arc, length, head):
     return 1.0 - x * x * (3.0 - 2.0 * x)
 
 
+MAX_ROUGHNESS = 1e100  # beyond it the MLS sums of the bumps overflow
+
+
 def rise_noise(coords, fraction, amplitude, seed, eps, degree=1):
     """The paper's roughness of the tear's top surface (step four): at a seeded random
     ``fraction`` of the points ``coords`` (n, 2) (the top surface's parameters, in scene
@@ -75,14 +82,17 @@ def rise_noise(coords, fraction, amplitude, seed, eps, degree=1):
     noise only rises (clipped at 0): the tear never sinks into the skin."""
     from . import mls
 
-    c = np.asarray(coords, np.float64).reshape(-1, 2)
-    rng = np.random.default_rng(int(seed))
+    c = checks.finite("The roughness' coordinates", coords).reshape(-1, 2)
+    fraction = checks.number("The roughness' fraction of bumps", fraction)
+    amplitude = checks.number("The roughness' height", amplitude, hi=MAX_ROUGHNESS)
+    seed = checks.whole("The roughness' seed", seed, 0)
+    rng = np.random.default_rng(seed)
     bumps = np.zeros(len(c))
-    k = int(round(np.clip(fraction, 0.0, 1.0) * len(c)))
+    k = int(round(min(max(fraction, 0.0), 1.0) * len(c)))
     if k == 0 or amplitude <= 0 or len(c) < 3:
         return bumps
     pick = rng.permutation(len(c))[:k]
-    bumps[pick] = rng.uniform(0.0, float(amplitude), k)
+    bumps[pick] = rng.uniform(0.0, amplitude, k)
     return np.maximum(mls.fit(c, bumps, c, degree=degree, eps=eps), 0.0)
 
 
@@ -157,14 +167,18 @@ def shell(base, normals, across, k, thickness, gap, rise=None, factor=None):
 def resample(path, step):
     """The polyline ``path`` (k, 3) resampled at equal arc-length steps of at most ``step``
     (the linear subdivision of step one), its ends kept; repeated points dropped first.
-    Raises ValueError for a path of fewer than two distinct points."""
-    p = np.asarray(path, np.float64).reshape(-1, 3)
+    Raises ValueError for a path of fewer than two distinct points, or a step that would
+    need more than ``checks.MAX_SAMPLES`` samples."""
+    p = checks.finite("A tear's path", path).reshape(-1, 3)
+    with np.errstate(over="ignore"):  # a path beyond the float range is refused below
+        seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
     if len(p) > 1:
-        p = p[np.concatenate([[True], np.linalg.norm(np.diff(p, axis=0), axis=1) > 1e-12])]
+        keep = np.concatenate([[True], seg > 1e-12])
+        p, seg = p[keep], seg[keep[1:]]
     if len(p) < 2:
         raise ValueError("a tear's path needs at least two distinct points")
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
-    n = max(2, int(np.ceil(arc[-1] / max(float(step), 1e-12))) + 1)
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
+    n = max(2, math.ceil(checks.samples("A tear's path", arc[-1], step)) + 1)
     s = np.linspace(0.0, arc[-1], n)
     return np.stack([np.interp(s, arc, p[:, i]) for i in range(3)], 1)
 

@@ -6,8 +6,10 @@ handlers, so every exported frame holds that frame's wrinkles (checked against
 the live evaluation in the tests).  The bake then adds a stand-in object,
 "<face> Baked": a copy of the face's mesh without shape keys, parented to the
 face, whose Mesh Sequence Cache modifier reads the positions back.  The face
-itself is hidden from renders.  Nothing of this needs the add-on or Python, so
-``blender -b file.blend -a`` on a farm renders it identically.
+itself is hidden from renders, and what follows the face's skin through its evaluated
+mesh (a shedding tear) follows the stand-in's instead, which holds the wrinkles.
+Nothing of this needs the add-on or Python, so ``blender -b file.blend -a`` on a farm
+renders it identically.
 
 The exporter applies the face's whole modifier stack, deformers after the Wrinkles
 modifier included, except a Catmull-Clark Subdivision Surface that is the last modifier
@@ -17,13 +19,16 @@ or an Armature after the stage would apply it a second time.
 """
 
 import os
+import zlib
 
 import bpy
 
-from . import registry, stage
+from . import registry, shedding, stage
 from .errors import WrinkleError
 
 BAKE_SUFFIX = " Baked"
+MARKER = "ewrinkles_stand_in_of"  # on the stand-in: the face whose bake made it
+CACHE_MODIFIER = "Wrinkle Bake"  # the stand-in's Mesh Sequence Cache modifier
 
 
 class BakeError(WrinkleError):
@@ -42,17 +47,39 @@ def has_stage(face):
 
 
 def stand_in(face):
-    """The baked stand-in of ``face``, or None."""
-    return face.ewrinkles_face.bake_object
+    """The baked stand-in of ``face``, or None.  Only an object that this face's bake made
+    counts: it carries the marker naming the face and is parented to it.  A pointer copied
+    with the face (Shift+D) or set by hand to another object is not a stand-in."""
+    ob = face.ewrinkles_face.bake_object
+    if ob is None or ob.parent != face:
+        return None
+    if MARKER not in ob:  # a stand-in baked before the marker: its cache modifier tells it
+        ours = any(m.type == "MESH_SEQUENCE_CACHE" and m.name == CACHE_MODIFIER for m in ob.modifiers)
+        return ob if ours else None
+    return ob if ob[MARKER] == face else None
 
 
 def has_any_bake(face):
-    """Whether ``face`` has a geometry bake or a bake of any wrinkle source."""
-    return stand_in(face) is not None or any(s.has_bake(face) for s in registry.sources())
+    """Whether ``face`` has a geometry bake (or a pointer to free) or a bake of any wrinkle
+    source."""
+    return (face.ewrinkles_face.bake_object is not None
+            or any(s.has_bake(face) for s in registry.sources()))
+
+
+def file_stem(face):
+    """The stem of the names of ``face``'s bake files (the Alembic cache, the fine wrinkles'
+    image sequence): its name made safe for a file name, unique among the objects of the file.
+    ``bpy.path.clean_name`` turns "Face.L" and "Face L" both into "Face_L", and a
+    case-insensitive file system holds one "face" and "Face": when another object's name
+    cleans to the same stem, a short checksum of the exact name keeps the files apart."""
+    stem = bpy.path.clean_name(face.name)
+    if any(ob != face and bpy.path.clean_name(ob.name).lower() == stem.lower() for ob in bpy.data.objects):
+        stem += f"_{zlib.crc32(face.name.encode()):08x}"
+    return stem
 
 
 def default_path(face):
-    return f"//wrinkle_bake/{bpy.path.clean_name(face.name)}.abc"
+    return f"//wrinkle_bake/{file_stem(face)}.abc"
 
 
 def _left_to_stand_in(face):
@@ -92,13 +119,20 @@ def _problem(face):
     return None
 
 
+def problem(face, filepath, frame_start, frame_end):
+    """Why the geometry of ``face`` cannot be baked to ``filepath`` over the frame range, or
+    None.  Bake for Farm checks it, and every source's own ``check``, before changing
+    anything."""
+    if not bpy.data.filepath and filepath.startswith("//"):
+        return "Save the .blend file first: the bake is written next to it"
+    if frame_end < frame_start:
+        return "The frame range is empty"
+    return _problem(face)
+
+
 def bake(context, face, filepath, frame_start, frame_end):
     """Export ``face`` over the frame range and switch its renders to the cache."""
-    if not bpy.data.filepath and filepath.startswith("//"):
-        raise BakeError("Save the .blend file first: the bake is written next to it")
-    if frame_end < frame_start:
-        raise BakeError("The frame range is empty")
-    why = _problem(face)
+    why = problem(face, filepath, frame_start, frame_end)
     if why:
         raise BakeError(why)
     free(face)
@@ -134,13 +168,15 @@ def bake(context, face, filepath, frame_start, frame_end):
 def _stand_in(face, filepath):
     """Add the stand-in reading the cache at ``filepath``; on any failure remove all of it
     again, so the face is hidden from renders only when the stand-in works."""
-    me = face.data.copy()
+    # a copy of the original mesh with every layer (UVs, materials) and no shape keys:
+    # Mesh.copy() copies the shape keys too, and on bpy 4.5 shape_key_clear() then leaves
+    # that Key in the file with a dangling owner once the stand-in is freed, which saving
+    # reports as an error (measured)
+    me = bpy.data.meshes.new_from_object(face, preserve_all_data_layers=True)
     me.name = face.data.name + BAKE_SUFFIX
     baked = bpy.data.objects.new(face.name + BAKE_SUFFIX, me)
     cache = None
     try:
-        if me.shape_keys is not None:
-            baked.shape_key_clear()
         for name in (stage.OFFSET_ATTR, stage.SKIN_ATTR):
             if me.attributes.get(name) is not None:
                 me.attributes.remove(me.attributes[name])
@@ -152,7 +188,7 @@ def _stand_in(face, filepath):
             slot.link = src.link
             slot.material = src.material
         cache = _open_cache(bpy.path.abspath(filepath))
-        mod = baked.modifiers.new("Wrinkle Bake", "MESH_SEQUENCE_CACHE")
+        mod = baked.modifiers.new(CACHE_MODIFIER, "MESH_SEQUENCE_CACHE")
         mod.cache_file = cache
         mod.read_data = {"VERT"}
         mod.object_path = _object_path(face, cache)
@@ -170,8 +206,10 @@ def _stand_in(face, filepath):
         if cache is not None and cache.users == 0:
             bpy.data.batch_remove([cache])  # cache_files has no remove()
         raise
+    baked[MARKER] = face
     face.hide_render = True
     face.ewrinkles_face.bake_object = baked
+    shedding.follow(face, baked)
     return baked
 
 
@@ -211,9 +249,12 @@ def _open_cache(path):
 
 
 def free(face):
-    """Remove the stand-in and render the live face again."""
-    baked = face.ewrinkles_face.bake_object
+    """Remove the stand-in and render the live face again.  Only a stand-in that this face's
+    bake made is removed (:func:`stand_in`); any other object the pointer names (copied
+    with the face, or set by hand) is left as it is and the pointer cleared."""
+    baked = stand_in(face)
     if baked is not None:
+        shedding.follow(baked, face)
         me = baked.data
         cache = next((m.cache_file for m in baked.modifiers if m.type == "MESH_SEQUENCE_CACHE"), None)
         bpy.data.objects.remove(baked)

@@ -21,10 +21,12 @@ def _article(word):
     return "an" if word[:1] in "aeiou" else "a"
 
 
-def problem(ob, *, local=True, object_mode=False, polygons=True, uv=False):
+def problem(ob, *, local=True, lists=False, object_mode=False, polygons=True, uv=False):
     """Why ``ob`` cannot be used as a face, or None.
 
     ``local``: its object and mesh must be editable (not linked from a library);
+    ``lists``: the add-on's lists on it (pattern layers, wrinkle curves) must be able to
+    change, which a library override's cannot (adding to one raises "not supported");
     ``object_mode``: not in Edit Mode (the mesh's arrays are stale there);
     ``polygons``: it must have faces; ``uv``: it must have a UV map."""
     if ob is None:
@@ -41,6 +43,10 @@ def problem(ob, *, local=True, object_mode=False, polygons=True, uv=False):
                     "library override")
         if ob.override_library is not None and ob.data.library is not None:
             return f'The mesh of "{ob.name}" is linked and read-only: override or make it local'
+    if lists and ob.override_library is not None:
+        return (f'"{ob.name}" is a library override, and its lists of pattern layers and wrinkle curves '
+                "cannot change: add them in the file it is linked from, or make it local "
+                "(Object > Relations > Make Local)")
     if object_mode and ob.mode == "EDIT":
         return f'"{ob.name}" is in Edit Mode: switch to Object Mode'
     if polygons and len(ob.data.polygons) == 0:
@@ -48,3 +54,11 @@ def problem(ob, *, local=True, object_mode=False, polygons=True, uv=False):
     if uv and len(ob.data.uv_layers) == 0:
         return f'"{ob.name}" has no UV map: unwrap it first (UV > Unwrap)'
     return None
+
+
+def collections_for(ob, scene):
+    """The collections a new object that goes with ``ob`` (a tear on the face) is linked
+    into: those of ``ob``'s that can take it, else the scene's own.  Objects cannot be linked
+    into a collection that is linked from a library or is a library override."""
+    own = [c for c in ob.users_collection if c.library is None and c.override_library is None]
+    return own or [scene.collection]

@@ -39,7 +39,8 @@ No ``bpy`` object is held between calls: the cache holds NumPy arrays keyed by
 ``Object.session_uid``, and every call looks the objects up again, so undo,
 file reload, deleted muscles and Edit Mode topology changes cannot leave a
 dangling reference.  Handlers never raise: problems become a status message
-shown in the panel.
+shown in the panel, and a source that raises loses only its own wrinkles for that frame
+(:func:`_run`).
 """
 
 import itertools
@@ -160,7 +161,7 @@ def _write_in_place(state, ev, skin, offset):
     if np.array_equal(current, state.shown):
         return np.array_equal(new, current)  # not re-evaluated: only identical is fine
     pos.data.foreach_set("vector", new.reshape(-1))
-    if ev.attributes.get(stage.OFFSET_ATTR) is not None:  # keep the evaluated mesh consistent
+    if meshio.attribute(ev, stage.OFFSET_ATTR, "FLOAT_VECTOR") is not None:  # keep it consistent
         meshio.write_vectors(ev, stage.OFFSET_ATTR, offset)
     ev.update()  # drops the cached normals; measured not to trigger a re-evaluation
     state.shown = new
@@ -171,40 +172,67 @@ def _stage_problem(ob, ev, mod):
     """Why the geometric stage cannot run on ``ob`` this frame, or None."""
     if mod is None:
         return "The Wrinkles modifier is missing: switch wrinkles off and on again"
-    if ev.attributes.get(stage.SKIN_ATTR) is None:
+    if meshio.attribute(ev, stage.SKIN_ATTR, "FLOAT_VECTOR") is None:
         return "The Wrinkles modifier is disabled or not evaluated"
     return stage.order_problem(ob, mod, len(ev.vertices))
 
 
-def _write_shading(ob, active, statics, contributions, ev=None):
+def _write_shading(ob, active, statics, contributions, failed, ev=None):
     """The sources' shading values; their point attributes into the evaluated mesh ``ev``
     when given (viewport frames whose geometry was written in place: no re-evaluation, which
     a write into the original mesh's attribute triggers, measured 3 ms at 50k vertices), else
-    into the original mesh (renders, exports, edits)."""
+    into the original mesh (renders, exports, edits).  Returns whether any went into ``ev``."""
     in_place = False
-    for source, part in zip(active, contributions):
+
+    def write(source, part):
+        nonlocal in_place
         for name, values in part.attributes.items():
-            att = ev.attributes.get(name) if ev is not None else None
-            if (att is not None and att.domain == "POINT" and att.data_type == "FLOAT"
-                    and len(att.data) == len(values) and ob.data.attributes.get(name) is not None):
+            att = meshio.attribute(ev, name, "FLOAT") if ev is not None else None
+            if (att is not None and len(att.data) == len(values)
+                    and meshio.attribute(ob.data, name, "FLOAT") is not None):
                 att.data.foreach_set("value", np.ascontiguousarray(values, dtype=np.float32))
                 in_place = True
             else:
                 meshio.write_floats(ob.data, name, values)
         for name, values in part.shading.items():
             source.write_shading(ob, statics[source.name], name, values)
+
+    for source, part in zip(active, contributions):
+        _run(ob, source, failed, write, source, part)
     if in_place:
         ev.update()  # the viewport redraws from it, as after the in-place geometry write
+    return in_place
 
 
-def _contributions(ob, active, statics, skin, inputs):
-    """Every active source's contribution, in the registry's order.  A source that moves the
-    skin tangentially (Waters' pull) deforms it for the sources after it: their compression
-    and shrinkage see the pulled skin.  Heights never feed back: every source reads the
-    skin before any wrinkle."""
+_FAILED = object()
+
+
+def _run(ob, source, failed, call, *args):
+    """``call(*args)`` for ``source``, or ``_FAILED`` if it raised.  One source's problem stays
+    its own: its message goes to ``failed[source.name]`` (a ``WrinkleError``'s as is, anything
+    else as an internal error, also printed on the console), the caller leaves that source
+    out of the frame, and the other sources' wrinkles are still written."""
+    try:
+        return call(*args)
+    except WrinkleError as exc:
+        failed[source.name] = str(exc)
+    except Exception as exc:
+        failed[source.name] = f"Internal error, {source.label or source.name} skipped: {exc!r}"
+        print(f"Expression Wrinkles: {ob.name}: {source.name}: {exc!r}")
+    return _FAILED
+
+
+def _contributions(ob, active, statics, skin, inputs, failed):
+    """Every active source's contribution, in the registry's order (an empty one for a source
+    whose ``contribute`` raised, see :func:`_run`).  A source that moves the skin
+    tangentially (Waters' pull) deforms it for the sources after it: their compression and
+    shrinkage see the pulled skin.  Heights never feed back: every source reads the skin
+    before any wrinkle."""
     out, deformed = [], skin
     for i, (s, frame_in) in enumerate(zip(active, inputs)):
-        c = s.contribute(ob, statics[s.name], deformed, frame_in)
+        c = _run(ob, s, failed, s.contribute, ob, statics[s.name], deformed, frame_in)
+        if c is _FAILED:
+            c = combine.Contribution()
         out.append(c)
         if i + 1 < len(active) and s.geometric and c.offset is not None and len(c.offset):
             if deformed is skin:
@@ -232,8 +260,8 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
     ev = ob.evaluated_get(depsgraph).data if why is None else None
     mod = stage.find_modifier(ob) if enabled else None
     if why is None and enabled:
-        if mod is not None and me.attributes.get(stage.OFFSET_ATTR) is None:
-            stage.ensure_offset_attribute(me)
+        if mod is not None and meshio.attribute(me, stage.OFFSET_ATTR, "FLOAT_VECTOR") is None:
+            stage.ensure_offset_attribute(me)  # missing, or another type under our name: replaced
         why = _stage_problem(ob, ev, mod)
     status.set(ob, CHANNEL, why or "")
     if why:
@@ -250,37 +278,48 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
         status.set(ob, CHANNEL, f'The modifiers of "{ob.name}" remove vertices: wrinkles need them all')
         return False
     skin = meshio.read_vector_prefix(ev, stage.SKIN_ATTR if enabled else "position", n, state.skin)
-    statics = {s.name: _static(state, s, ob, in_scene, changes) for s in active}
+    failed = {}  # source name -> its message, for a source that raised (see _run)
+    statics = {s.name: _run(ob, s, failed, _static, state, s, ob, in_scene, changes) for s in active}
+    active = [s for s in active if statics[s.name] is not _FAILED]
+    frame_inputs = [_run(ob, s, failed, s.inputs, ob, statics[s.name]) for s in active]
+    active, frame_inputs = ([s for s, i in zip(active, frame_inputs) if i is not _FAILED],
+                            tuple(i for i in frame_inputs if i is not _FAILED))
     # the build serials: static data rebuilt by an interactive edit (a curve or muscle moved)
     # must be written even when the skin and the frame's inputs are as before
     serials = tuple(state.statics[s.name][2] for s in active)
-    inputs = ((float(ob.ewrinkles_face.strength), serials)
-              + tuple(s.inputs(ob, statics[s.name]) for s in active))
+    inputs = (float(ob.ewrinkles_face.strength), serials) + frame_inputs
     if only_if_changed and state.orig_inputs is not None:
         old_skin, old_inputs = state.orig_inputs
-        if old_inputs == inputs and np.array_equal(old_skin, skin):
+        # the original mesh must also hold this frame's offsets: after in-place frames it
+        # holds an older frame's, which the tree does not show on this one (a saved file)
+        if (old_inputs == inputs and np.array_equal(old_skin, skin)
+                and (not enabled or stage.holds_frame(me, depsgraph))):
             return False
-    contributions = _contributions(ob, active, statics, skin, inputs[2:])
-    for s in registry.sources():
-        status.set(ob, s.name, s.problems(ob, statics[s.name]) if s in active else "")
+    contributions = _contributions(ob, active, statics, skin, inputs[2:], failed)
+    problems = {s.name: _run(ob, s, failed, s.problems, ob, statics[s.name]) for s in active}
     if not enabled:
-        _write_shading(ob, active, statics, contributions, ev if in_place else None)
-        state.orig_inputs = (skin.copy(), inputs)
-        return False
-    geometric = [(s, c) for s, c in zip(active, contributions) if s.geometric]
-    plan = _plan(state, [s for s, _c in geometric], statics)
-    parts = [c for _s, c in geometric]
-    out = combine.combine(plan, skin, parts, out=state.out)
-    if in_place and stage.output_is_final(ob, mod) and _write_in_place(state, ev, skin, out):
-        _write_shading(ob, active, statics, contributions, ev)
+        if not _write_shading(ob, active, statics, contributions, failed, ev if in_place else None):
+            state.orig_inputs = (skin.copy(), inputs)  # only what went into the original mesh
+        wrote = False
     else:
-        _write_shading(ob, active, statics, contributions)
-        meshio.write_vectors(me, stage.OFFSET_ATTR, out)
-        stage.stamp(ob, depsgraph)
-        me.update_tag()
-        state.orig_inputs = (skin.copy(), inputs)
-        state.shown = skin + out  # what the re-evaluation that the tag triggers will show
-    return True
+        geometric = [(s, c) for s, c in zip(active, contributions) if s.geometric]
+        plan = _plan(state, [s for s, _c in geometric], statics)
+        parts = [c for _s, c in geometric]
+        out = combine.combine(plan, skin, parts, out=state.out)
+        if in_place and stage.output_is_final(ob, mod) and _write_in_place(state, ev, skin, out):
+            _write_shading(ob, active, statics, contributions, failed, ev)
+        else:
+            _write_shading(ob, active, statics, contributions, failed)
+            meshio.write_vectors(me, stage.OFFSET_ATTR, out)
+            stage.stamp(ob, depsgraph)
+            me.update_tag()
+            state.orig_inputs = (skin.copy(), inputs)
+            state.shown = skin + out  # what the re-evaluation that the tag triggers will show
+        wrote = True
+    for s in registry.sources():
+        message = failed.get(s.name) or problems.get(s.name)
+        status.set(ob, s.name, message if isinstance(message, str) else "")
+    return wrote
 
 
 _is_face = {}  # session_uid -> whether a wrinkle source works on that object
@@ -310,7 +349,36 @@ def _changes(depsgraph):
             for u in depsgraph.updates}
 
 
+# The updates of viewport evaluations between frame changes that no full check has seen
+# (session_uid -> (transform, geometry)).  An evaluation consumes the depsgraph's updates:
+# a muscle moved, then view_layer.update() or an evaluated mesh read in a script, leaves
+# nothing of the move in the next frame change's updates.  on_depsgraph_update_post
+# collects them where it does not check everything itself (background mode, renders,
+# playback); the next viewport frame adds them to its own.
+_pending = {}
+
+
+def _remember(depsgraph):
+    for uid, (moved, edited) in _changes(depsgraph).items():
+        was = _pending.get(uid, (False, False))
+        _pending[uid] = (moved or was[0], edited or was[1])
+
+
+def _frame_changes(depsgraph):
+    """The IDs updated for this viewport frame, with those of the evaluations since the last
+    frame change (:data:`_pending`)."""
+    changes = _changes(depsgraph)
+    if _pending:
+        for uid, (moved, edited) in _pending.items():
+            now = changes.get(uid, (False, False))
+            changes[uid] = (moved or now[0], edited or now[1])
+        _pending.clear()
+    return changes
+
+
 def update_scene(scene, depsgraph, only_if_changed=False, in_place=False, changes=None):
+    if changes is None:
+        _pending.clear()  # everything is checked
     found, in_scene = _scan(scene, changes)
     meshes = [ob.data for ob in found if ob.ewrinkles_face.enabled]
     for ob in found:
@@ -342,18 +410,27 @@ def render_frame():
 _in_frame_sync = False
 
 
-def _current_depsgraph(scene):
-    """The context's evaluated depsgraph, brought to the scene's current frame.
+def _current_depsgraph(scene, animate=False):
+    """The context's evaluated depsgraph, brought to the scene's current frame; with
+    ``animate`` (render and export frames), its animation evaluated again even when it is
+    at that frame.
 
     Measured on bpy 4.5 and 5.2: on the FIRST frame of ``render(animation=True)``
     started from another frame, the context's depsgraph is still at the old
     frame (its ``scene_eval.frame_current`` lags), so the skin read from it and
     the original shape-key values the render re-evaluates with are both stale.
-    Setting the frame again evaluates it; our handler skips the nested call.
+    Started on the current frame, it is at that frame, but a keyed value typed over
+    since the last frame change (a muscle's contraction) is still the typed one in
+    the original and in the context's evaluated copy, where the render and Bake for
+    Farm's export evaluate the F-curve; the render's own depsgraph does not evaluate
+    the animation of objects hidden from renders, such as the muscles.  Setting the
+    frame again evaluates it, and writes the animated values back into the original
+    data, as every frame change and a still render (measured) do; our handler skips
+    the nested call.
     """
     global _in_frame_sync
     dg = bpy.context.evaluated_depsgraph_get()
-    if dg.scene_eval.frame_current != scene.frame_current and not _in_frame_sync:
+    if (animate or dg.scene_eval.frame_current != scene.frame_current) and not _in_frame_sync:
         _in_frame_sync = True
         try:
             scene.frame_set(scene.frame_current, subframe=scene.frame_subframe)
@@ -369,14 +446,14 @@ def on_frame_change_post(scene, depsgraph=None):
         return
     if depsgraph is not None and depsgraph.mode == "VIEWPORT":
         # the depsgraph just evaluated for this frame: write into it, no second evaluation
-        update_scene(scene, depsgraph, in_place=True, changes=_changes(depsgraph))
+        update_scene(scene, depsgraph, in_place=True, changes=_frame_changes(depsgraph))
         return
     # Renders and exports: write back, reading through the context's depsgraph, since the
     # handler's argument drops other animated shape keys during render(animation=True)
     # (docs/architecture.md, "The frame handler").
     _render_frame[0] = depsgraph is not None and depsgraph.mode == "RENDER"
     try:
-        update_scene(scene, _current_depsgraph(scene))
+        update_scene(scene, _current_depsgraph(scene, animate=_render_frame[0]))
     finally:
         _render_frame[0] = False
 
@@ -384,12 +461,12 @@ def on_frame_change_post(scene, depsgraph=None):
 @persistent
 def on_depsgraph_update_post(scene, depsgraph=None):
     # Interactive edits only (a shape key slider, a muscle moved): renders and background
-    # jobs are driven by frame changes.  Unchanged inputs write nothing, so our own
-    # write does not loop.
-    if bpy.app.background or _rendering():
-        return
+    # jobs are driven by frame changes, which also see what this evaluation updated
+    # (_pending).  Unchanged inputs write nothing, so our own write does not loop.
     screen = getattr(bpy.context, "screen", None)
-    if screen is not None and screen.is_animation_playing:
+    if bpy.app.background or _rendering() or (screen is not None and screen.is_animation_playing):
+        if depsgraph is not None and depsgraph.mode == "VIEWPORT":
+            _remember(depsgraph)
         return  # playback is handled frame by frame
     update_scene(scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
 
@@ -407,6 +484,7 @@ def on_save_pre(*_args):
 def on_load_post(*_args):
     _cache.clear()
     _is_face.clear()
+    _pending.clear()
     status.clear()
 
 

@@ -40,14 +40,24 @@ def write_vectors(me, name, values):
     _attr(me, name).data.foreach_set("vector", np.ascontiguousarray(values, dtype=np.float32).reshape(-1))
 
 
+def attribute(me, name, data_type):
+    """The point attribute ``name`` if it has the type ``data_type``, else None.  A file, a
+    script or another add-on may have left anything under one of our names (a float on the
+    faces, say): every read of our attributes checks it first."""
+    att = me.attributes.get(name)
+    if att is None or att.data_type != data_type or att.domain != "POINT":
+        return None
+    return att
+
+
 def point_attribute(me, name, data_type):
     """The point attribute ``name`` of type ``data_type`` ("FLOAT", "FLOAT_VECTOR"), created,
     or replacing an attribute of that name with another type or domain."""
-    att = me.attributes.get(name)
-    if att is not None and (att.data_type != data_type or att.domain != "POINT"):
-        me.attributes.remove(att)
-        att = None
+    att = attribute(me, name, data_type)
     if att is None:
+        wrong = me.attributes.get(name)
+        if wrong is not None:
+            me.attributes.remove(wrong)
         att = me.attributes.new(name, data_type, "POINT")
     return att
 

@@ -37,6 +37,32 @@ def stack(face):
     return face.ewrinkles_face.patterns
 
 
+def active_index(st):
+    """The index of the stack's active layer, inside the stack (-1 when it is empty).  RNA
+    does not check a stored index when it is read, so a file can hold any integer (-3, 99);
+    every reader of ``active`` goes through here."""
+    n = len(st.layers)
+    return min(max(int(st.active), 0), n - 1) if n else -1
+
+
+def setting(lay, prop):
+    """The layer's setting ``prop``, checked as it is read: RNA does not check stored values
+    on read, so a file can hold any number.  An enum value this version does not know reads
+    as "" and raises PatternError; a number outside its property's range is clamped into it,
+    and NaN gives the property's default."""
+    rna = lay.bl_rna.properties[prop]
+    value = getattr(lay, prop)
+    if rna.type == "ENUM" and value not in rna.enum_items:
+        raise PatternError(f'The layer "{lay.name}" has a {rna.name} that this version of the add-on '
+                           f"does not know (the file was changed or made by another version): pick its "
+                           f"{rna.name} again")
+    if rna.type in {"INT", "FLOAT"} and not rna.is_array:
+        if value != value:  # NaN
+            return rna.default
+        return type(value)(min(max(value, rna.hard_min), rna.hard_max))
+    return value
+
+
 def face_size(face):
     rest = meshio.read_vectors(face.data, "position")
     return float(np.ptp(rest, axis=0).max()) if len(rest) else 1.0
@@ -66,31 +92,35 @@ def vertex_group_weights(face, name):
 
 def build_layer(face, mesh, lay):
     """The static data (``core.patterns.Layer``) of the layer settings ``lay`` on the face's
-    rest mesh ``mesh``.  Raises PatternError."""
+    rest mesh ``mesh``.  Raises PatternError, also for a setting the file holds that this
+    version does not know (:func:`setting`)."""
+    kind, region, _drive = setting(lay, "kind"), setting(lay, "region"), setting(lay, "drive")
+    radius, border = setting(lay, "radius"), setting(lay, "border")
     if lay.frame is None or lay.frame.name not in bpy.context.scene.objects:
         raise PatternError(f'The layer "{lay.name}" has lost its frame (the Empty was deleted): pick '
                            "another Empty as its Frame")
     m, scale = to_frame(face, lay.frame)
     rest = np.asarray(mesh.rest, np.float64)
     local = rest @ m[:3, :3].T + m[:3, 3]
-    if lay.region == "RADIUS":
-        if lay.radius <= 0.0:
+    if region == "RADIUS":
+        if radius <= 0.0:
             raise PatternError(f'The layer "{lay.name}" has a radius of 0: it covers nothing')
         centre = np.array(face.matrix_world.inverted_safe() @ lay.frame.matrix_world.translation, np.float64)
         dist = np.linalg.norm(rest - centre, axis=1) * face_unit(face)
-        weight = patterns.damping_radius(dist, lay.radius, lay.border)
+        weight = patterns.damping_radius(dist, radius, border)
         if not (weight > 0).any():
             raise PatternError(f'The layer "{lay.name}" covers no vertex: move its frame onto the skin or '
                                "make its radius larger")
     else:
         w = vertex_group_weights(face, lay.vertex_group)
         unit = face_unit(face)
-        border = patterns.border_distance(rest * unit, mesh.edges, w > 0, lay.border)
-        weight = patterns.damping_border(border, lay.border, w)
+        weight = patterns.damping_border(patterns.border_distance(rest * unit, mesh.edges, w > 0, border),
+                                         border, w)
     keep = landmarks.keep_out(face, rest)  # with the landmarks placed: nothing on lids and lips
     if keep is not None:
         weight = weight * keep
-    return patterns.layer(lay.kind, local, rest, mesh.edges, weight, lay.fraction, lay.seed, scale)
+    return patterns.layer(kind, local, rest, mesh.edges, weight, setting(lay, "fraction"),
+                          setting(lay, "seed"), scale)
 
 
 def refine_need(face, factor, scene):
@@ -114,7 +144,7 @@ def refine_need(face, factor, scene):
             inside = np.zeros(len(rest), bool)
             inside[built.verts] = True
             near = inside[edges[:, 0]] | inside[edges[:, 1]]
-            step = patterns.half_cycle(lay.kind, t, alpha, beta, gamma) * built.scale / factor
+            step = patterns.half_cycle(built.kind, t, alpha, beta, gamma) * built.scale / factor
             limit[near] = np.minimum(limit[near], step)
         d = rest[edges[:, 1]] - rest[edges[:, 0]]
         return np.flatnonzero(np.sqrt(np.einsum("ij,ij->i", d, d)) > limit)
@@ -129,19 +159,21 @@ def face_unit(face):
 
 def values(face, lay, scene, skin_compression=None):
     """This frame's ``(t, strength, alpha, beta, gamma)`` of the layer ``lay``; the strength
-    driven by a shape key or a muscle here, by the compression in the source."""
-    spec = patterns.PATTERNS[lay.kind]
-    params = {p.key: getattr(lay, p.prop) for p in spec.params}
-    t = lay.time
+    driven by a shape key or a muscle here, by the compression in the source.  Raises
+    PatternError for a type or drive this version does not know (:func:`setting`)."""
+    spec = patterns.PATTERNS[setting(lay, "kind")]
+    params = {p.key: setting(lay, p.prop) for p in spec.params}
+    t = setting(lay, "time")
     if lay.follow_scene:
         fps = scene.render.fps / (scene.render.fps_base or 1.0)
-        t += lay.speed * (scene.frame_current + scene.frame_subframe) / max(fps, 1e-6)
-    strength = lay.strength
-    if lay.drive == "SHAPE_KEY":
+        t += setting(lay, "speed") * (scene.frame_current + scene.frame_subframe) / max(fps, 1e-6)
+    strength = setting(lay, "strength")
+    drive = setting(lay, "drive")
+    if drive == "SHAPE_KEY":
         keys = face.data.shape_keys
         block = keys.key_blocks.get(lay.drive_shape_key) if keys is not None else None
         strength *= block.value if block is not None else 0.0
-    elif lay.drive == "MUSCLE":
+    elif drive == "MUSCLE":
         m = lay.drive_muscle
         strength *= m.ewrinkles_muscle.contraction if m is not None else 0.0
     return (float(t), float(strength), float(params.get("alpha", 0.0)), float(params.get("beta", 0.0)),
@@ -230,32 +262,44 @@ def add_layer(context, face, kind, point, normal):
     return lay
 
 
-def copy_layer(face, src, frame=None):
-    """A copy of the layer ``src`` at the end of the stack (sharing its frame, or ``frame``)."""
+def layer_settings(lay):
+    """Every setting of the layer ``lay`` as a plain dict, checked as :func:`setting` reads
+    them.  Raises PatternError."""
+    return {p.identifier: setting(lay, p.identifier) for p in lay.bl_rna.properties
+            if not p.is_readonly and p.identifier != "rna_type"}
+
+
+def copy_layer(face, index, frame=None):
+    """A copy of the stack's layer ``index`` at the end of the stack (sharing its frame, or
+    ``frame``).  Its settings are read into a dict first: ``layers.add()`` can move the
+    stack's items in memory, so a layer held across it is left pointing at freed memory."""
     st = stack(face)
+    settings = layer_settings(st.layers[index])
     lay = st.layers.add()
-    for prop in src.bl_rna.properties:
-        if not prop.is_readonly and prop.identifier != "rna_type":
-            setattr(lay, prop.identifier, getattr(src, prop.identifier))
+    for key, value in settings.items():
+        setattr(lay, key, value)
     if frame is not None:
         lay.frame = frame
     st.active = len(st.layers) - 1
     return lay
 
 
-def mirror_layer(context, face, src):
-    """A copy of ``src`` mirrored across the face's own x = 0 plane: a new frame Empty that is
-    the mirror image of the old one (its x scale negative), so the pattern is mirrored too."""
-    if src.frame is None:
-        raise PatternError(f'The layer "{src.name}" has no frame to mirror')
+def mirror_layer(context, face, index):
+    """A copy of the stack's layer ``index`` mirrored across the face's own x = 0 plane: a
+    new frame Empty that is the mirror image of the old one (its x scale negative), so the
+    pattern is mirrored too."""
+    src = stack(face).layers[index]
+    name, frame = src.name, src.frame
+    if frame is None:
+        raise PatternError(f'The layer "{name}" has no frame to mirror')
     w = face.matrix_world
     flip = Matrix.Diagonal((-1.0, 1.0, 1.0, 1.0))
-    ob = src.frame.copy()
-    ob.name = src.frame.name + " Mirrored"
+    ob = frame.copy()
+    ob.name = frame.name + " Mirrored"
     _frame_collection(context.scene).objects.link(ob)
-    ob.matrix_world = w @ flip @ w.inverted_safe() @ src.frame.matrix_world
-    lay = copy_layer(face, src, ob)
-    lay.name = src.name + " Mirrored"
+    ob.matrix_world = w @ flip @ w.inverted_safe() @ frame.matrix_world
+    lay = copy_layer(face, index, ob)  # src is not used after this: the add may have moved it
+    lay.name = name + " Mirrored"
     if lay.region == "GROUP":
         other = mirror_name(lay.vertex_group)
         if other and face.vertex_groups.get(other) is not None:
@@ -300,5 +344,5 @@ def apply_layer(context, face, index, mesh):
     key.data.foreach_set("co", co.ravel())
     key.value = 1.0
     st.layers.remove(index)
-    st.active = max(0, min(st.active, len(st.layers) - 1))
+    st.active = max(0, active_index(st))
     return key

@@ -104,6 +104,12 @@ class WrinkleSource:
         """Whether :meth:`bake` has anything to do on ``face``."""
         return False
 
+    def check(self, face, scene, frame_start, frame_end):
+        """Why :meth:`bake` cannot run on ``face`` now (a message for the artist), or "".
+        Bake for Farm asks every source that :meth:`bakes` before it changes anything, so a
+        bake either runs whole or refuses with every reason."""
+        return ""
+
     def has_bake(self, face):
         """Whether ``face`` holds a bake of this source that :meth:`free_bake` can undo."""
         return False

@@ -22,10 +22,11 @@ from ..core import mesh as core_mesh
 from ..core import tears
 from . import meshio, surface
 from .bando import curves as bando_curves
+from .faces import collections_for
 from .nodes import Builder, float_inputs
 from .nodes import ensure_group as ensure_group_of
 from .patterns import face_unit
-from .tears import TearError, set_input, water_material
+from .tears import TearError, get_input, set_input, water_material
 
 GROUP_NAME = "Shedding Tear"
 MODIFIER_NAME = "Shedding Tear"
@@ -165,6 +166,22 @@ def ensure_group():
     return ensure_group_of(GROUP_NAME, "GeometryNodeTree", VERSION, _build, TearError)
 
 
+def follow(old, new):
+    """Make every shedding tear that follows the skin of ``old`` follow ``new``'s.  Bake for
+    Farm hands a face's tears to its stand-in, whose evaluated mesh holds the baked wrinkles
+    (a farm without the add-on evaluates the face itself without them), and Free Bake hands
+    them back.  Both have the same vertices, so the tears' binding holds."""
+    for ob in bpy.data.objects:
+        for mod in ob.modifiers:
+            if (mod.type == "NODES" and mod.node_group is not None and mod.node_group.name == GROUP_NAME
+                    and ob.library is None and get_input(mod, "Skin") == old):
+                set_input(mod, "Skin", new)
+                # a new input value alone leaves the depsgraph's relations as they were, so the
+                # tear could be evaluated before its new skin (a frame behind); assigning the
+                # group rebuilds them (measured on bpy 4.5)
+                mod.node_group = mod.node_group
+
+
 # --------------------------------------------------------------------------- the path
 def curve_path(face, curve):
     """The points (k, 3, face space) of the curve object ``curve``, from its start.  Raises
@@ -295,7 +312,7 @@ def add_shedding_tear(context, face, path, half_width, thickness, gap, roughness
     me = _mesh(f"{face.name} Tear", tear, unit, skin, base_tri)
     me.materials.append(water_material())
     ob = bpy.data.objects.new(f"{face.name} Tear", me)
-    for coll in face.users_collection:
+    for coll in collections_for(face, context.scene):
         coll.objects.link(ob)
     ob.parent = face  # its mesh is in the face's space
     ob.matrix_parent_inverse = Matrix.Identity(4)

@@ -26,6 +26,7 @@ SKIN_ATTR = "wrinkle_skin"
 OFFSET_ATTR = "wrinkle_offset"
 FRAME_ATTR = "wrinkle_frame"
 VERSION = 2  # 2: the offsets apply only on the frame they were computed for
+FRAME_EPSILON = 0.001  # the tree applies the offsets where |frame - wrinkle_frame| <= this
 _TOPOLOGY_MODIFIERS = {
     "SUBSURF", "MULTIRES", "REMESH", "DECIMATE", "TRIANGULATE", "BEVEL", "SOLIDIFY", "MIRROR",
     "ARRAY", "BOOLEAN", "SKIN", "WELD", "SCREW", "EDGE_SPLIT", "WIREFRAME", "MASK", "BUILD",
@@ -59,7 +60,7 @@ def _build_group(ng):
     same = nodes.new("FunctionNodeCompare")  # |frame - stamp| <= 0.001: this frame's offsets
     same.data_type = "FLOAT"
     same.operation = "EQUAL"
-    same.inputs["Epsilon"].default_value = 0.001
+    same.inputs["Epsilon"].default_value = FRAME_EPSILON
     gate = nodes.new("ShaderNodeVectorMath")
     gate.operation = "SCALE"
     setpos = nodes.new("GeometryNodeSetPosition")
@@ -152,12 +153,26 @@ def output_is_final(ob, mod):
     return not after or (len(after) == 1 and after[0].type == "SUBSURF")
 
 
+def frame_of(depsgraph):
+    """``depsgraph``'s frame as the tree sees it: the Scene Time node's Frame is the scene's
+    frame with its subframe and with the time remapping (Frame Map Old/New) applied, which is
+    ``Scene.frame_current_final``."""
+    return depsgraph.scene_eval.frame_current_final
+
+
 def stamp(ob, depsgraph):
-    """Mark the offsets just written as those of ``depsgraph``'s frame (subframe included)."""
-    scene = depsgraph.scene_eval
+    """Mark the offsets just written as those of ``depsgraph``'s frame (:func:`frame_of`)."""
     me = ob.data
-    meshio.write_floats(me, FRAME_ATTR, np.full(len(me.vertices), scene.frame_current + scene.frame_subframe,
-                                                np.float32))
+    meshio.write_floats(me, FRAME_ATTR, np.full(len(me.vertices), frame_of(depsgraph), np.float32))
+
+
+def holds_frame(me, depsgraph):
+    """Whether the offsets the original mesh ``me`` holds are stamped with ``depsgraph``'s
+    frame, so that the tree shows them on it (a saved file, a render)."""
+    att = meshio.attribute(me, FRAME_ATTR, "FLOAT")
+    if att is None or len(att.data) == 0:
+        return False
+    return abs(att.data[0].value - frame_of(depsgraph)) <= FRAME_EPSILON
 
 
 def ensure_offset_attribute(me):

@@ -2,11 +2,14 @@
 """The face's rest surface as arrays, with its UVs: what every method that works in UV space
 (the wrinkle-map bakes, the wrinkle curves, the fine wrinkles) reads from the mesh."""
 
+import zlib
+
 import bpy
 import numpy as np
 from mathutils.bvhtree import BVHTree
 
 from ..core import mesh as core_mesh
+from ..core.bando import mapped
 from . import faces, meshio, stage
 from .errors import WrinkleError
 
@@ -68,6 +71,47 @@ class Surface:
                                    "0-1 UV square: the maps cover only that square")
 
 
+MAX_DEGENERATE = 0.05  # the UV map may leave this fraction of its triangles without area
+
+
+def layout_problem(face, s):
+    """Why the UV layout of the :class:`Surface` ``s`` of ``face`` cannot carry the UV-space
+    wrinkles (the fine wrinkles, the wrinkle curves), or "": a collapsed UV map, too many
+    triangles without area in UV, or bow-tie vertices (``core.bando.mapped``).  On each,
+    the shrinkage across a wrinkle (Bando 2002, eq. 4) has no direction to be measured in."""
+    bad = mapped.degenerate_uv(s.uv)
+    where = f'The UV map "{s.uv_name}" of "{face.name}"'
+    if bad.all():
+        return (f"{where} is collapsed: none of its faces has an area in UV (a new UV map is like "
+                "that until it is unwrapped). Unwrap it (UV > Unwrap), or pick another UV map")
+    if bad.mean() > MAX_DEGENERATE:
+        return (f"{where} has {int(bad.sum())} of its {len(bad)} triangles without area in UV (their "
+                "corners lie at one point or on a line), so no wrinkle can be placed there. Unwrap "
+                "those faces again")
+    bow = mapped.bowtie_vertices(s.tris, len(s.rest))
+    if len(bow):
+        return (f'"{face.name}" has {len(bow)} bow-tie vertices (vertex {bow[0]} is one), where faces '
+                "meet at a corner without sharing an edge: the skin has no single surface there. "
+                "Select them (Select > Select All by Trait > Non Manifold, Vertices) and pull the "
+                "faces apart (Vertex > Rip Vertices) or join them with a face")
+    return ""
+
+
+def uv_key(face, uv_map=None):
+    """The UV map that ``Surface(face, uv_map)`` reads, by name and content: a CRC-32 of its
+    float32 coordinates, so a static key changes when the UVs are edited, not only when a
+    map is renamed or picked.  0.5 ms at 50k vertices (200k corners; measured, bpy 4.5 and
+    5.2: 0.1-0.2 ms the read, 0.4 ms the CRC).  The message instead when there is no such
+    map."""
+    try:
+        layer = uv_layer(face, uv_map)
+    except SurfaceError as exc:
+        return str(exc)
+    buf = np.empty(len(face.data.loops) * 2, np.float32)
+    layer.uv.foreach_get("vector", buf)
+    return layer.name, zlib.crc32(buf)
+
+
 def evaluated_skin(face, n, depsgraph=None):
     """The deformed skin before wrinkles (n, 3) float32: ``wrinkle_skin`` of the evaluated
     mesh when the Wrinkles stage exists, else the evaluated positions (the first ``n``
@@ -75,8 +119,8 @@ def evaluated_skin(face, n, depsgraph=None):
     leave fewer than ``n`` vertices."""
     dg = depsgraph or bpy.context.evaluated_depsgraph_get()
     ev = face.evaluated_get(dg).data
-    name = stage.SKIN_ATTR if (stage.find_modifier(face) is not None
-                               and ev.attributes.get(stage.SKIN_ATTR) is not None) else "position"
+    staged = stage.find_modifier(face) is not None and meshio.attribute(ev, stage.SKIN_ATTR, "FLOAT_VECTOR")
+    name = stage.SKIN_ATTR if staged else "position"
     if len(ev.vertices) < n:
         return None
     return meshio.read_vector_prefix(ev, name, n, np.empty((n, 3), np.float32))

@@ -9,6 +9,7 @@ import bpy
 
 from ..core import tears
 from .errors import WrinkleError
+from .faces import collections_for
 from .nodes import Builder, float_inputs, principled, use_nodes
 from .nodes import ensure_group as ensure_group_of
 
@@ -145,7 +146,7 @@ def add_teardrop(context, face, location, **values):
         raise TearError("A tear must fall every so many seconds: Every must be above 0")
     me = bpy.data.meshes.new("Teardrop")
     ob = bpy.data.objects.new(f"{face.name} Teardrop", me)
-    for coll in face.users_collection:
+    for coll in collections_for(face, context.scene):
         coll.objects.link(ob)
     ob.location = location
     ob.parent = face

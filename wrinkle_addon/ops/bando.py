@@ -19,7 +19,7 @@ from ..glue.bando import curves, shading
 from ..glue.bando import fine as fine_glue
 from ..glue.errors import WrinkleError
 from ..glue.progress import Progress
-from .common import face_poll, guarded, select_only
+from .common import face_poll, guarded, nothing_left_on_failure, select_only
 
 _face = faces.active
 
@@ -60,7 +60,7 @@ class WRINKLE_OT_add_curve(bpy.types.Operator):
         default=0.25, min=0.01, max=2.0, subtype="FACTOR",
     )
 
-    poll = face_poll()
+    poll = face_poll(lists=True)
 
     @guarded
     def execute(self, context):
@@ -70,7 +70,8 @@ class WRINKLE_OT_add_curve(bpy.types.Operator):
         centre = _to_local(face, [tuple(context.scene.cursor.location)])[0]
         half = 0.5 * self.length * size
         line = centre + np.linspace(-half, half, 5)[:, None] * np.array([1.0, 0.0, 0.0])
-        ob = curves.create(context, face, _snap(snapper, line))
+        with nothing_left_on_failure():
+            ob = curves.create(context, face, _snap(snapper, line))
         _finish(context, ob)
         return {"FINISHED"}
 
@@ -83,7 +84,7 @@ class WRINKLE_OT_curve_from_edges(bpy.types.Operator):
     bl_label = "Wrinkle Curve from Edges"
     bl_options = {"REGISTER", "UNDO"}
 
-    poll = face_poll(object_mode=False)
+    poll = face_poll(object_mode=False, lists=True)
 
     @guarded
     def execute(self, context):
@@ -107,7 +108,8 @@ class WRINKLE_OT_curve_from_edges(bpy.types.Operator):
         pts = co.reshape(-1, 3)[np.asarray(order)]
         if was_edit:
             bpy.ops.object.mode_set(mode="OBJECT")
-        ob = curves.create(context, face, pts, name="Wrinkle Curve")
+        with nothing_left_on_failure():
+            ob = curves.create(context, face, pts, name="Wrinkle Curve")
         _finish(context, ob)
         return {"FINISHED"}
 
@@ -120,7 +122,7 @@ class WRINKLE_OT_curve_from_stroke(bpy.types.Operator):
     bl_label = "Wrinkle Curve from Stroke"
     bl_options = {"REGISTER", "UNDO"}
 
-    poll = face_poll()
+    poll = face_poll(lists=True)
 
     @guarded
     def execute(self, context):
@@ -136,7 +138,8 @@ class WRINKLE_OT_curve_from_stroke(bpy.types.Operator):
         pts = pts[keep]
         if len(pts) < 2 or np.linalg.norm(np.diff(pts, axis=0), axis=1).sum() < 1e-9:
             raise WrinkleError("The annotation stroke is a single point: draw a line")
-        ob = curves.create(context, face, pts, name="Wrinkle Curve")
+        with nothing_left_on_failure():
+            ob = curves.create(context, face, pts, name="Wrinkle Curve")
         _finish(context, ob)
         return {"FINISHED"}
 
@@ -162,7 +165,7 @@ class WRINKLE_OT_use_curve(bpy.types.Operator):
     @guarded
     def execute(self, context):
         face = context.active_object
-        why = faces.problem(face)
+        why = faces.problem(face, lists=True)
         if why:
             raise WrinkleError(why)
         lst = face.ewrinkles_face.wrinkle_curves

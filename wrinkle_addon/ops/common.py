@@ -1,8 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """What every operator shares: the face poll and the one error-report helper."""
 
+import contextlib
 import functools
 import traceback
+
+import bpy
 
 from ..glue import faces
 from ..glue.errors import WrinkleError
@@ -31,6 +34,26 @@ def select_only(context, ob):
         o.select_set(False)
     ob.select_set(True)
     context.view_layer.objects.active = ob
+
+
+# What an operator of ours can make, in the order they are removed (objects before their data).
+_MADE = ("objects", "meshes", "curves", "collections", "materials", "node_groups", "images")
+
+
+@contextlib.contextmanager
+def nothing_left_on_failure():
+    """Run the block; if it raises, remove every object, mesh, curve, collection, material,
+    node group and image made inside it, then let the error go on (to :func:`guarded`).  A
+    failed Add leaves nothing behind; what existed before the block is never touched."""
+    before = {kind: {idb.session_uid for idb in getattr(bpy.data, kind)} for kind in _MADE}
+    try:
+        yield
+    except BaseException:
+        for kind in _MADE:
+            ids = getattr(bpy.data, kind)
+            for idb in [i for i in ids if i.session_uid not in before[kind]]:
+                ids.remove(idb)
+        raise
 
 
 def guarded(execute):

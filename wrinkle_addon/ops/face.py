@@ -98,23 +98,36 @@ class WRINKLE_OT_bake(bpy.types.Operator):
         if not geometry and not baking:
             raise WrinkleError(f'"{face.name}" has neither wrinkles nor wrinkle maps to bake')
         path = self.filepath or bake.default_path(face)
+        # every precondition, the geometry's and each source's, before anything changes
+        problems = [bake.problem(face, path, start, end)] if geometry else []
+        problems += [source.check(face, scene, start, end) for source in baking]
+        problems = list(dict.fromkeys(p for p in problems if p))
+        if problems:
+            raise bake.BakeError("Nothing was baked: " + "; ".join(problems))
         n = end - start + 1
         done = []
-        with Progress(context, f"Bake for Farm {face.name}", total=(1 + len(baking)) * n,
-                      every=25) as progress:
-            if geometry:
-                progress(0, f"frames {start}-{end} to {path}")
-                try:
-                    baked = bake.bake(context, face, path, start, end)
-                except (RuntimeError, OSError) as exc:
-                    raise bake.BakeError(str(exc)) from exc
-                done.append(f'frames {start}-{end} to {path}; "{baked.name}" renders them')
-            for k, source in enumerate(baking):
-                offset = (k + 1) * n
-                line = source.bake(face, scene, start, end,
-                                   lambda i, _total, o=offset, s=source: progress(o + i, s.label))
-                if line:
-                    done.append(line)
+        try:
+            with Progress(context, f"Bake for Farm {face.name}", total=(1 + len(baking)) * n,
+                          every=25) as progress:
+                if geometry:
+                    progress(0, f"frames {start}-{end} to {path}")
+                    try:
+                        baked = bake.bake(context, face, path, start, end)
+                    except (RuntimeError, OSError) as exc:
+                        raise bake.BakeError(str(exc)) from exc
+                    done.append(f'frames {start}-{end} to {path}; "{baked.name}" renders them')
+                for k, source in enumerate(baking):
+                    offset = (k + 1) * n
+                    line = source.bake(face, scene, start, end,
+                                       lambda i, _total, o=offset, s=source: progress(o + i, s.label))
+                    if line:
+                        done.append(line)
+        except WrinkleError as exc:
+            # the bake has begun (the previous one is freed): finish all the same, so that what
+            # changed is one undo step that brings the file back as it was
+            made = f"Baked only {'; '.join(done)}" if done else "Nothing was baked"
+            self.report({"ERROR"}, f"{exc}. {made}: Undo brings the file back as it was")
+            return {"FINISHED"}
         self.report({"INFO"}, "Baked " + "; ".join(done) if done else
                     "Nothing needed baking: the wrinkle maps' drivers need no add-on")
         return {"FINISHED"}

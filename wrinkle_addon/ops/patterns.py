@@ -12,15 +12,14 @@ from ..glue import patterns as glue
 from ..glue.progress import Progress
 from ..glue.registry import MeshArrays
 from ..glue.surface import Surface
-from .common import face_ok, face_poll, guarded
+from .common import face_ok, face_poll, guarded, nothing_left_on_failure
 
 
 def _active_layer(context):
+    """The face, its stack and the index of its active layer (-1: none)."""
     face = faces.active(context)
     st = face.ewrinkles_face.patterns
-    if not st.layers:
-        return face, st, None
-    return face, st, st.layers[min(st.active, len(st.layers) - 1)]
+    return face, st, glue.active_index(st)
 
 
 class _LayerOperator:
@@ -28,7 +27,7 @@ class _LayerOperator:
 
     @classmethod
     def poll(cls, context):
-        if not face_ok(cls, context):
+        if not face_ok(cls, context, lists=True):
             return False
         if not faces.active(context).ewrinkles_face.patterns.layers:
             cls.poll_message_set("The face has no pattern layers")
@@ -65,13 +64,14 @@ class WRINKLE_OT_add_pattern(bpy.types.Operator):
     kind: EnumProperty(name="Type", description="Which pattern to add", items=KINDS, default="FOREHEAD")
     where: _where("Where to put the pattern's frame")
 
-    poll = face_poll()
+    poll = face_poll(lists=True)
 
     @guarded
     def execute(self, context):
         face = faces.active(context)
         point, normal = _on_skin(context, face, self.where)
-        lay = glue.add_layer(context, face, self.kind, point, normal)
+        with nothing_left_on_failure():
+            lay = glue.add_layer(context, face, self.kind, point, normal)
         pipeline.refresh_all(context)
         self.report({"INFO"}, f'Added the pattern "{lay.name}" to "{face.name}"')
         return {"FINISHED"}
@@ -85,8 +85,7 @@ class WRINKLE_OT_remove_pattern(_LayerOperator, bpy.types.Operator):
 
     @guarded
     def execute(self, context):
-        _face, st, _lay = _active_layer(context)
-        i = min(st.active, len(st.layers) - 1)
+        _face, st, i = _active_layer(context)
         st.layers.remove(i)
         st.active = max(0, i - 1)
         pipeline.refresh_all(context)
@@ -101,8 +100,9 @@ class WRINKLE_OT_duplicate_pattern(_LayerOperator, bpy.types.Operator):
 
     @guarded
     def execute(self, context):
-        face, _st, lay = _active_layer(context)
-        glue.copy_layer(face, lay).name = lay.name + " Copy"
+        face, st, i = _active_layer(context)
+        name = st.layers[i].name
+        glue.copy_layer(face, i).name = name + " Copy"
         pipeline.refresh_all(context)
         return {"FINISHED"}
 
@@ -119,8 +119,7 @@ class WRINKLE_OT_move_pattern(_LayerOperator, bpy.types.Operator):
 
     @guarded
     def execute(self, context):
-        _face, st, _lay = _active_layer(context)
-        i = min(st.active, len(st.layers) - 1)
+        _face, st, i = _active_layer(context)
         j = i - 1 if self.direction == "UP" else i + 1
         if 0 <= j < len(st.layers):
             st.layers.move(i, j)
@@ -137,8 +136,9 @@ class WRINKLE_OT_mirror_pattern(_LayerOperator, bpy.types.Operator):
 
     @guarded
     def execute(self, context):
-        face, _st, lay = _active_layer(context)
-        glue.mirror_layer(context, face, lay)
+        face, _st, i = _active_layer(context)
+        with nothing_left_on_failure():
+            glue.mirror_layer(context, face, i)
         pipeline.refresh_all(context)
         return {"FINISHED"}
 
@@ -152,12 +152,11 @@ class WRINKLE_OT_apply_pattern(_LayerOperator, bpy.types.Operator):
 
     @guarded
     def execute(self, context):
-        face, st, _lay = _active_layer(context)
+        face, _st, i = _active_layer(context)
         if face.mode == "EDIT":
             raise glue.PatternError("Leave Edit Mode to apply a pattern")
         s = Surface(face, need_uv=False)
-        key = glue.apply_layer(context, face, min(st.active, len(st.layers) - 1),
-                               MeshArrays(s.rest, s.edges, s.tris))
+        key = glue.apply_layer(context, face, i, MeshArrays(s.rest, s.edges, s.tris))
         pipeline.refresh_all(context)
         self.report({"INFO"}, f'Applied as the shape key "{key.name}"')
         return {"FINISHED"}
@@ -188,10 +187,11 @@ class WRINKLE_OT_add_teardrop(bpy.types.Operator):
         size = glue.face_size(face) * glue.face_unit(face)
         # the drop forms on the skin, not in it: its widest radius is about 1.5 Width out
         out = (face.matrix_world.to_3x3() @ normal).normalized() * (tears.REACH * self.width * size)
-        ob = tears.add_teardrop(context, face, face.matrix_world @ point + out, Width=self.width * size,
-                                Length=0.64 * self.width * size, Speed=8.0 * self.width * size,
-                                Start=(context.scene.frame_current - 1) / _fps(context.scene),
-                                Every=self.every, Lasts=self.lasts)
+        with nothing_left_on_failure():
+            ob = tears.add_teardrop(context, face, face.matrix_world @ point + out, Width=self.width * size,
+                                    Length=0.64 * self.width * size, Speed=8.0 * self.width * size,
+                                    Start=(context.scene.frame_current - 1) / _fps(context.scene),
+                                    Every=self.every, Lasts=self.lasts)
         self.report({"INFO"}, f'Added "{ob.name}": its size, speed and timing are in its Teardrop modifier')
         return {"FINISHED"}
 
@@ -241,7 +241,7 @@ class WRINKLE_OT_add_shedding_tear(bpy.types.Operator):
         half = 0.5 * self.width * glue.face_size(face)  # face units
         curves = [o for o in context.selected_objects if o.type == "CURVE"]
         kind = self.path if self.path != "AUTO" else ("CURVE" if curves else "FACES")
-        with Progress(context, self.bl_label) as progress:
+        with Progress(context, self.bl_label) as progress, nothing_left_on_failure():
             progress(0.1, "reading the path")
             if kind == "CURVE":
                 if len(curves) != 1:

@@ -39,7 +39,8 @@ class CurveSource(WrinkleSource):
 
     def static_key(self, face, in_scene):
         uv = [(lay.name, lay.active_render) for lay in face.data.uv_layers]
-        return ((tuple(map(tuple, face.matrix_world)), tuple(uv), face.ewrinkles_face.maps.uv_map)
+        return ((tuple(map(tuple, face.matrix_world)), tuple(uv), face.ewrinkles_face.maps.uv_map,
+                 surface.uv_key(face))
                 + tuple(curves.signature(c) for c in curves.live_curves(face, in_scene)))
 
     def unchanged(self, face, static, changes, in_scene):
@@ -58,6 +59,9 @@ class CurveSource(WrinkleSource):
             return _Static(face, uids=uids)
         try:
             s = surface.Surface(face)
+            why = surface.layout_problem(face, s)
+            if why:
+                return _Static(face, uids=uids, problem=f"Wrinkle curves: {why}")
             m = mapped.mapped_mesh(s.tris, s.uv, len(s.rest))
             snapper = surface.Snapper(s.rest, s.tris)
             scale = float(np.ptp(s.rest, axis=0).max()) or 1.0

@@ -36,22 +36,30 @@ class FineSource(WrinkleSource):
 
     def static_key(self, face, in_scene):
         fs = face.ewrinkles_face.fine_wrinkles
-        return meshio.topology_key(face.data), fs.uv_map, fs.image_1.name, fs.furrows
+        return (meshio.topology_key(face.data), fs.uv_map, fs.image_1.name, fs.furrows,
+                surface.uv_key(face, fs.uv_map or None))
 
     def unchanged(self, face, static, changes, in_scene):
-        return True  # only a new carving (which forgets the cache) or an edit changes it
+        # only a new carving (which forgets the cache) or an edit changes it; an edit (of the
+        # UVs, say) tags the mesh with every flag, animation only with geometry
+        return not changes.get(face.session_uid, (False, False))[0]
 
     def build(self, face, mesh, in_scene):
         fs = face.ewrinkles_face.fine_wrinkles
         try:
             s = surface.Surface(face, fs.uv_map or None)
+            why = surface.layout_problem(face, s)
+            if why:
+                return _Static(problem=f"Fine wrinkles: {why}")
+            m = mapped.mapped_mesh(s.tris, s.uv, len(s.rest))
+            fields = fine_glue.read_fields(face, s, m)
+            if fields is None:
+                return _Static(problem="The fine wrinkles' direction fields are missing: carve them again")
+            return _Static(fine.plan(m, mesh.rest, fields[0], fields[1]))
         except surface.SurfaceError as exc:
             return _Static(problem=str(exc))
-        m = mapped.mapped_mesh(s.tris, s.uv, len(s.rest))
-        fields = fine_glue.read_fields(face, s, m)
-        if fields is None:
-            return _Static(problem="The fine wrinkles' direction fields are missing: carve them again")
-        return _Static(fine.plan(m, mesh.rest, fields[0], fields[1]))
+        except ValueError as exc:  # the core's checks (non-finite fields, say)
+            return _Static(problem=f"Fine wrinkles: {exc}. Carve them again")
 
     def contribute(self, face, static, skin, inputs):
         if static.plan is None:
@@ -68,6 +76,9 @@ class FineSource(WrinkleSource):
 
     def bakes(self, face):
         return self.active(face) and fine_glue.can_bake(face)
+
+    def check(self, face, scene, frame_start, frame_end):
+        return fine_glue.bake_problem(face)
 
     def has_bake(self, face):
         return fine_glue.has_baked_shrinkage(face)

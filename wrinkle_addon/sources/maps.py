@@ -10,7 +10,17 @@ from ..core.combine import Contribution
 from ..core.maps import jimenez
 from ..glue.maps import material
 from ..glue.registry import WrinkleSource
+from ..glue.surface import SurfaceError
 from ..ui import maps as maps_ui
+
+
+class _Static:
+    """The tension's static data (``material.tension_statics``), or why there is none."""
+
+    __slots__ = ("tension", "problem")
+
+    def __init__(self, tension=None, problem=""):
+        self.tension, self.problem = tension, problem
 
 
 class MapSource(WrinkleSource):
@@ -25,17 +35,25 @@ class MapSource(WrinkleSource):
         return material.tension_key(face)
 
     def build(self, face, mesh, in_scene):
-        return material.tension_statics(face)
+        try:
+            return _Static(material.tension_statics(face))
+        except SurfaceError as exc:  # the UV map is gone, say: the maps' own problem
+            return _Static(problem=f"Tension-driven wrinkle maps paused: {exc}")
 
     def inputs(self, face, static):
         return (float(face.ewrinkles_face.maps.tension_gain),)
 
     def contribute(self, face, static, skin, inputs):
-        rest_length, edges, vertex_masks = static
+        if static.tension is None:
+            return Contribution()
+        rest_length, edges, vertex_masks = static.tension
         compression = jimenez.vertex_compression(skin, edges, rest_length)
         (gain,) = inputs
         values = jimenez.zone_tension(vertex_masks, compression, gain)
         return Contribution(shading={"zone_weights": values})
+
+    def problems(self, face, static):
+        return static.problem
 
     def write_shading(self, face, static, name, values):
         material.write_tension(face, values)

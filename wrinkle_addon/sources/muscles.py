@@ -11,11 +11,12 @@ from ..ui import muscles as muscles_ui
 
 
 class _Static:
-    __slots__ = ("plan", "footprint", "refs", "n_refs", "names", "uids", "params")
+    __slots__ = ("plan", "footprint", "refs", "n_refs", "names", "uids", "params", "not_finite")
 
     def __init__(self, plan, refs, n_refs, muscles, marks):
         self.plan, self.footprint, self.refs, self.n_refs = plan, plan.footprint, refs, n_refs
         self.names = [m.name for m in muscles]
+        self.not_finite = [objects.not_finite(m) for m in muscles]
         self.uids = frozenset(m.session_uid for m in muscles + marks)
         self.params = {m.session_uid: objects.parameters(m) for m in muscles}
 
@@ -100,7 +101,17 @@ class MuscleSource(WrinkleSource):
 
     def problems(self, face, static):
         found = [f'"{static.names[i]}": {msg}' for i, msg in static.plan.problems]
-        return "Muscle without effect: " + "; ".join(found) if found else ""
+        out = ["Muscle without effect: " + "; ".join(found) + "."] if found else []
+        for i, asked, built in static.plan.limits:
+            out.append(f'"{static.names[i]}" asks for {asked:.0f} wrinkles, more than the mesh can show '
+                       f"in its wrinkling region (a wrinkle needs about two edges along the muscle): "
+                       f"it shows {built}. Lower Wrinkles, or add vertices with Refine Wrinkling Regions.")
+        for name, labels in zip(static.names, static.not_finite):
+            if labels:
+                verb = "is not a number" if len(labels) == 1 else "are not numbers"
+                out.append(f'"{name}": {", ".join(labels)} {verb} (NaN) and cannot be used. '
+                           "Type a value.")
+        return " ".join(out)
 
     def draw(self, layout, context, face):
         muscles_ui.draw_face_muscles(layout, context, face)

@@ -46,8 +46,9 @@ class PatternSource(WrinkleSource):
         key = [tuple(map(tuple, face.matrix_world)), meshio.topology_key(face.data), marks]
         for lay in face.ewrinkles_face.patterns.layers:
             in_it = lay.frame is not None and lay.frame.session_uid in in_scene
-            key.append((lay.kind, _frame_key(lay), in_it, lay.region, lay.radius, lay.vertex_group,
-                        lay.border, lay.fraction, lay.seed))
+            numbers = tuple(glue.setting(lay, p) for p in ("radius", "border", "fraction", "seed"))
+            key.append((lay.kind, lay.region, lay.drive, _frame_key(lay), in_it, lay.vertex_group)
+                       + numbers)  # what build_layer reads (a stored NaN reads as the default)
         return tuple(key)
 
     def build(self, face, mesh, in_scene):
@@ -70,7 +71,7 @@ class PatternSource(WrinkleSource):
             if lay is None or not (lay.show_render if render else lay.show_viewport):
                 out.append((0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
                 continue
-            full = lay.full_compression if lay.drive == "COMPRESSION" else 0.0
+            full = glue.setting(lay, "full_compression") if lay.drive == "COMPRESSION" else 0.0
             out.append(glue.values(face, lay, scene) + (full,))
         return tuple(out)
 

@@ -4,6 +4,7 @@
 import bpy
 
 from ..core import patterns
+from ..glue import patterns as glue
 
 
 class WRINKLE_UL_patterns(bpy.types.UIList):
@@ -38,7 +39,7 @@ def draw_face_patterns(layout, context, face):
         layout.operator("wrinkle.refine", icon="MOD_SUBSURF")
     if not st.layers:
         return
-    lay = st.layers[min(st.active, len(st.layers) - 1)]
+    lay = st.layers[glue.active_index(st)]
     col = layout.column()
     col.use_property_split = True
     col.prop(lay, "kind")
@@ -49,7 +50,8 @@ def draw_face_patterns(layout, context, face):
     else:
         col.prop_search(lay, "vertex_group", face, "vertex_groups")
     col.prop(lay, "border")
-    for p in patterns.PATTERNS[lay.kind].params:
+    spec = patterns.PATTERNS.get(lay.kind)  # None: a type this version does not know (the source says so)
+    for p in spec.params if spec is not None else ():
         col.prop(lay, p.prop, text=p.name)
     col.prop(lay, "time")
     col.prop(lay, "follow_scene")

@@ -50,7 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import mesh, raster
+from .. import checks, mesh, raster
 
 WINDOW_START = 8.0  # the window starts falling at l = 8 w ...
 CUTOFF = 10.0  # ... and is 0 from l = 10 w on: vertices farther away are untouched
@@ -138,18 +138,23 @@ def _dedupe(polyline):
 def resample(polyline, spacing):
     """Resample a polyline (k, dim) uniformly by arc length: the end points are kept and
     consecutive samples are ``<= spacing`` apart (exactly ``length / ceil(length /
-    spacing)``)."""
+    spacing)``).  Raises ValueError for fewer than 2 finite points, a spacing that is not
+    a positive number, or one that would need more than ``checks.MAX_SAMPLES`` samples."""
     p = np.asarray(polyline, dtype=np.float64)
     if p.ndim != 2 or len(p) < 2 or not np.isfinite(p).all():
         raise ValueError("A polyline needs at least 2 finite points")
-    spacing = float(spacing)
-    if not (math.isfinite(spacing) and spacing > 0):
+    try:
+        spacing = checks.number("The resampling spacing", spacing)
+    except ValueError:
+        raise ValueError("The resampling spacing must be a positive number") from None
+    if not spacing > 0:
         raise ValueError("The resampling spacing must be a positive number")
-    p = _dedupe(p)
-    if len(p) < 2:
-        raise ValueError("The polyline has zero length: all its points coincide")
-    s = np.concatenate([[0.0], np.cumsum(np.sqrt((np.diff(p, axis=0) ** 2).sum(axis=1)))])
-    n = max(1, math.ceil(s[-1] / spacing - 1e-9))
+    with np.errstate(over="ignore"):  # a polyline beyond the float range is refused below
+        p = _dedupe(p)
+        if len(p) < 2:
+            raise ValueError("The polyline has zero length: all its points coincide")
+        s = np.concatenate([[0.0], np.cumsum(np.sqrt((np.diff(p, axis=0) ** 2).sum(axis=1)))])
+    n = max(1, math.ceil(checks.samples("The polyline", s[-1], spacing) - 1e-9))
     t = np.linspace(0.0, s[-1], n + 1)
     return np.stack([np.interp(t, s, p[:, k]) for k in range(p.shape[1])], axis=1)
 

@@ -677,9 +677,10 @@ def shrinkage_plan(uv, tris, direction, rest):
     slot_coef = np.ones((4, n))
     for s_ in range(2):  # the two sides
         has = slot[s_] >= 0
-        for e in range(2):
-            slot_ends[2 * s_ + e] = np.where(has, ends[np.maximum(slot[s_], 0), e], np.arange(n))
-            slot_coef[2 * s_ + e] = np.where(has, coef[np.maximum(slot[s_], 0), e], 1.0)
+        for e in range(2):  # gathered only where a side exists: there may be no corner at all
+            slot_ends[2 * s_ + e] = np.arange(n)
+            slot_ends[2 * s_ + e][has] = ends[slot[s_][has], e]
+            slot_coef[2 * s_ + e][has] = coef[slot[s_][has], e]
     return ShrinkagePlan(n, vert, ends, al, be, rest_lengths, side, slot_ends, slot_coef, share, none,
                          slot_coef.astype(np.float32), share.astype(np.float32))
 

@@ -58,3 +58,39 @@ def mapped_mesh(tris, corner_uv, n_verts):
     corner[inverse] = np.arange(len(inverse))  # any corner of each: their UVs are equal
     return MappedMesh(uv=uv[corner].astype(np.float64), tris=inverse.reshape(-1, 3),
                       vert_of=unique[:, 0].copy(), n_verts=int(n_verts))
+
+
+def degenerate_uv(corner_uv):
+    """(T,) bool: the triangles whose corners' UVs ``corner_uv`` (T, 3, 2) span no area (at
+    one point or on a line, to a relative 1e-12 of their squared UV edge lengths, the
+    test :func:`field.shrinkage_plan` skips a corner by).  A new UV map that was never
+    unwrapped, or one scaled to a point, has only such triangles: no texel of the fine
+    wrinkles' images and no direction across a wrinkle curve lies on them."""
+    uv = np.asarray(corner_uv, np.float64).reshape(-1, 3, 2)
+    a, b = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+    det = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    scale = np.einsum("ij,ij->i", a, a) + np.einsum("ij,ij->i", b, b)
+    return ~(np.abs(det) > 1e-12 * scale)  # NaN UVs count as degenerate too
+
+
+def bowtie_vertices(tris, n_verts):
+    """The vertices (K,) sorted where two or more fans of triangles ``tris`` (T, 3) meet
+    without sharing an edge there (a "bow-tie": non-manifold at the vertex).
+
+    A vertex with ``k`` triangle corners around it, forming ``c`` open fans (each a run of
+    triangles joined by shared edges), has ``k + c`` distinct edges; a closed fan (the
+    vertex inside the surface) has as many edges as corners.  So ``edges - corners`` is
+    the number of open fans, and 2 or more is a bow-tie.  (Two closed fans touching at a
+    vertex, two cones apex to apex, are not found: no face is made that way.)  Triangles
+    with a repeated vertex are left out."""
+    t = np.asarray(tris, np.int64).reshape(-1, 3)
+    n = int(n_verts)
+    t = t[(t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 2] != t[:, 0])]
+    if len(t) == 0 or n == 0:
+        return np.zeros(0, np.int64)
+    a = np.concatenate([t[:, 0], t[:, 1], t[:, 2]])
+    b = np.concatenate([t[:, 1], t[:, 2], t[:, 0]])
+    edges = np.unique(np.minimum(a, b) * n + np.maximum(a, b))
+    n_edges = np.bincount(np.concatenate([edges // n, edges % n]), minlength=n)
+    n_corners = np.bincount(t.ravel(), minlength=n)
+    return np.flatnonzero(n_edges - n_corners >= 2)

@@ -20,7 +20,7 @@ angle between an edge and ``x_i -> m_A`` barely changes while the skin
 deforms, and caching it removes half of the per-frame work.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -66,6 +66,7 @@ class Plan:
     half_cycles: np.ndarray  # (M,) u per muscle
     region_sizes: np.ndarray  # (M,) vertices in each wrinkling region
     problems: list = field(default_factory=list)  # (muscle index, message)
+    limits: list = field(default_factory=list)  # (muscle index, n_w asked, n_w built): see wrinkle_limit
     smooth_cells: np.ndarray = None  # (R, 4) cells of each row's A(eps) smoothing, or None
     smooth_weights: np.ndarray = None  # (R, 4) float32 bilinear weights
     smooth_norm: np.ndarray = None  # (cells,) 1 / total weight per cell (0 where empty)
@@ -77,33 +78,40 @@ class Plan:
 # the sequence of furrows keeps its shape; +-2u across the fibre, along each furrow, whose
 # fold is long and whose depth changes slowly along it (a scan's irregular edges made lumps)
 CELL = (0.5, 1.0)
+_MAX_CELL = float(2**40)
 
 
 def _smoothing(fields, keep):
     """The grid on which each muscle's amplitude A(eps) is smoothed: cells of ``CELL`` half
     cycles u in the muscle's plane (``MuscleField.coords``); each kept row splats into and
     reads back from its 4 surrounding cells with bilinear weights.  Returns (cells (R, 4),
-    weights (R, 4) float32, number of cells, per-cell weight totals)."""
-    cells, weights, start = [], [], 0
-    for f in fields:
+    weights (R, 4) float32, number of cells, per-cell weight totals).
+
+    Only the cells that some row touches are numbered, so the grid has at most 4 cells a
+    row whatever the half cycle: a grid over the region's whole bounding box grows as
+    ``(n_w / (1 - lambda_w))²`` and took 15 GB for 1000 wrinkles (measured)."""
+    keys, weights = [], []
+    corner = [(0, 0), (1, 0), (0, 1), (1, 1)]
+    for k, f in enumerate(fields):
         c = np.asarray(f.coords, np.float64).reshape(-1, 2)
         if len(c) == 0:
             continue
         g = (c - c.min(axis=0)) / (np.array(CELL) * max(f.half_cycle, 1e-12))
+        g = np.minimum(g, _MAX_CELL)  # a finite cell index even for an absurdly small u
         i = np.floor(g).astype(np.int64)
         t = g - i
-        nz = int(i[:, 1].max()) + 2
-        corner = [(0, 0), (1, 0), (0, 1), (1, 1)]
-        cells.append(np.stack([start + (i[:, 0] + a) * nz + i[:, 1] + b for a, b in corner], axis=1))
+        keys.append(np.stack([np.stack([np.full(len(c), k), i[:, 0] + a, i[:, 1] + b], axis=1)
+                              for a, b in corner], axis=1))
         weights.append(np.stack([np.where(a, t[:, 0], 1 - t[:, 0]) * np.where(b, t[:, 1], 1 - t[:, 1])
                                  for a, b in corner], axis=1))
-        start += (int(i[:, 0].max()) + 2) * nz
-    if not cells:
+    if not keys:
         return np.zeros((0, 4), np.int64), np.zeros((0, 4), _F), 0, np.zeros(0)
-    cells = np.concatenate(cells)[keep]
+    keys = np.concatenate(keys)[keep].reshape(-1, 3)
     weights = np.concatenate(weights)[keep]
-    total = np.bincount(cells.ravel(), weights=weights.ravel(), minlength=start)
-    return cells, weights.astype(_F), start, total
+    used, cells = np.unique(keys, axis=0, return_inverse=True)
+    cells = cells.reshape(-1, 4)
+    total = np.bincount(cells.ravel(), weights=weights.ravel(), minlength=len(used))
+    return cells, weights.astype(_F), len(used), total
 
 
 def smooth_rows(plan, values):
@@ -117,6 +125,29 @@ def smooth_rows(plan, values):
     return np.einsum("ij,ij->i", plan.smooth_weights, grid[plan.smooth_cells])
 
 
+def wrinkle_limit(rest, edges, muscle, f):
+    """The most wrinkles the mesh can show in the wrinkling region of ``f`` (the
+    :class:`MuscleField` of ``muscle``), or None when its ``n_w`` is within that.
+
+    A wrinkle is one cycle ``2u`` of eq. 5's profile; sampled by edges longer than ``u`` it
+    aliases into noise.  So a region carries at most one wrinkle per two edge lengths
+    (the median rest length of the edges inside it) along the muscle: ``u >= h``, and
+    since ``u`` is inversely proportional to ``n_w`` (eq. 6), ``n_w <= n_w u / h``.  At
+    least one wrinkle is kept.  A region with no edge inside is left as it is."""
+    n_w = muscle.sanitized().n_wrinkles
+    if n_w < 0.5 or len(f.region) < 2 or len(edges) == 0:
+        return None
+    inside = np.zeros(len(rest), bool)
+    inside[f.region] = True
+    e = edges[inside[edges].all(axis=1)]
+    if len(e) == 0:
+        return None
+    h = float(np.median(mesh.edge_lengths(rest, e)))
+    if not h > 0.0 or f.half_cycle >= h:
+        return None
+    return max(int(np.floor(n_w * f.half_cycle / h)), 1)
+
+
 def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
     """Precompute everything static.  ``rest`` (N, 3), ``edges`` (E, 2), ``tris`` (T, 3).
 
@@ -127,12 +158,18 @@ def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
     n = len(rest)
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
     tris = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
-    fields, problems = [], []
+    fields, problems, limits = [], [], []
     for i, m in enumerate(muscles):
         why = m.problem()
         if why:
             problems.append((i, why))
-        fields.append(muscle_field(rest, m))
+        f = muscle_field(rest, m)
+        most = wrinkle_limit(rest, edges, m, f)
+        if most is not None:
+            asked = float(m.n_wrinkles) if np.isfinite(m.n_wrinkles) else m.sanitized().n_wrinkles
+            limits.append((i, asked, most))
+            f = muscle_field(rest, replace(m.sanitized(), n_wrinkles=most))
+        fields.append(f)
     n_m = len(muscles)
 
     # Waters pull rows, all muscles concatenated
@@ -214,6 +251,7 @@ def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
         half_cycles=np.array([f.half_cycle for f in fields]),
         region_sizes=np.array([len(f.region) for f in fields]),
         problems=problems,
+        limits=limits,
         smooth_cells=cells if smooth else None,
         smooth_weights=cell_w,
         smooth_norm=np.where(cell_total > 0, 1.0 / np.where(cell_total > 0, cell_total, 1.0), 0.0),

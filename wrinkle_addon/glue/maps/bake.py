@@ -199,7 +199,11 @@ def _soften(surface, memberships, inside, softness):
     """``core.raster.soften`` of per-vertex memberships over ``softness`` (face-local
     units), the diffusion measured by the median edge among the ``inside`` vertices."""
     edge = _median_edge(surface.rest, surface.edges, inside)
-    return raster.soften(memberships, surface.edges, raster.diffusion_time(float(softness), edge))
+    try:
+        t = raster.diffusion_time(float(softness), edge)
+    except ValueError as exc:  # a softness of NaN, or of a million edges
+        raise BakeError(f"The zone borders cannot be softened: {exc}") from None
+    return raster.soften(memberships, surface.edges, t)
 
 
 def _zones_of(ob):

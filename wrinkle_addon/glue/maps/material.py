@@ -21,6 +21,7 @@ from ...core.maps.jimenez import N_ZONES
 from .. import drivers, faces, images, meshio, nodes
 from .. import frame as frame_stage
 from .. import status as status_store
+from ..surface import SurfaceError
 from . import bake as mapbake
 from . import nodegroups as mapgroup
 
@@ -379,15 +380,20 @@ def wants_tension(face):
 
 
 def tension_key(face):
-    """What the tension statics depend on: the topology, the UV map and the masks."""
+    """What the tension statics depend on: the topology, the UV map (or why there is none
+    to use) and the masks."""
     maps = face.ewrinkles_face.maps
-    return (meshio.topology_key(face.data), mapbake.uv_layer(face).name) + tuple(
+    try:
+        uv = mapbake.uv_layer(face).name
+    except SurfaceError as exc:  # tension_statics raises it: the source reports it
+        uv = (str(exc),)
+    return (meshio.topology_key(face.data), uv) + tuple(
         (m.name, tuple(m.size)) if m is not None else None for m in (maps.mask_a, maps.mask_b))
 
 
 def tension_statics(face):
     """(rest edge lengths, edges, zone masks at the vertices (V, 8)) for
-    ``core.maps.jimenez.zone_tension``."""
+    ``core.maps.jimenez.zone_tension``.  Raises SurfaceError (no UV map, say)."""
     maps = face.ewrinkles_face.maps
     surface = mapbake.Surface(face)
     vertex_uv = np.zeros((len(surface.rest), 2), np.float32)
