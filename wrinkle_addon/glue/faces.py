@@ -28,7 +28,9 @@ def problem(ob, *, local=True, lists=False, object_mode=False, polygons=True, uv
     ``lists``: the add-on's lists on it (pattern layers, wrinkle curves) must be able to
     change, which a library override's cannot (adding to one raises "not supported");
     ``object_mode``: not in Edit Mode (the mesh's arrays are stale there);
-    ``polygons``: it must have faces; ``uv``: it must have a UV map."""
+    ``polygons``: it must have faces; ``uv``: it must have a UV map.  A face scaled to
+    zero along an axis (or to NaN) is refused always: every method works in the face's own
+    space, and its transform then has no inverse."""
     if ob is None:
         return "No active object: select the face mesh"
     if ob.type != "MESH":
@@ -43,6 +45,9 @@ def problem(ob, *, local=True, lists=False, object_mode=False, polygons=True, uv
                     "library override")
         if ob.override_library is not None and ob.data.library is not None:
             return f'The mesh of "{ob.name}" is linked and read-only: override or make it local'
+    if not abs(ob.matrix_world.to_3x3().determinant()) > 1e-18:  # NaN is refused too
+        return (f'"{ob.name}" is scaled to zero (or to an invalid value) along an axis: give it a '
+                "scale other than 0 (Object Properties > Transform > Scale)")
     if lists and ob.override_library is not None:
         return (f'"{ob.name}" is a library override, and its lists of pattern layers and wrinkle curves '
                 "cannot change: add them in the file it is linked from, or make it local "

@@ -211,8 +211,14 @@ class WRINKLE_OT_snap_curve(bpy.types.Operator):
     @guarded
     def execute(self, context):
         face, ob = _active_curve(context)
+        why = faces.problem(face, local=False)
+        if why:
+            raise WrinkleError(why)
         snapper, _s = _snapper(face)
         m = np.array(face.matrix_world.inverted_safe() @ ob.matrix_world, np.float64)
+        if not abs(np.linalg.det(m[:3, :3])) > 1e-18:  # NaN too
+            raise WrinkleError(f'"{ob.name}" is scaled to zero along an axis: give it a scale other '
+                               "than 0 before snapping it")
         back = np.linalg.inv(m)
         for spline in ob.data.splines:
             if spline.type != "BEZIER":

@@ -99,6 +99,8 @@ class WRINKLE_OT_bake(bpy.types.Operator):
             raise WrinkleError(f'"{face.name}" has neither wrinkles nor wrinkle maps to bake')
         path = self.filepath or bake.default_path(face)
         # every precondition, the geometry's and each source's, before anything changes
+        if end < start:
+            raise bake.BakeError(f"The frame range {start}-{end} is empty: set End at or after Start")
         problems = [bake.problem(face, path, start, end)] if geometry else []
         problems += [source.check(face, scene, start, end) for source in baking]
         problems = list(dict.fromkeys(p for p in problems if p))

@@ -1,0 +1,94 @@
+"""Regression tests: faults that the random runs of ``tools/stress.py`` found.
+
+* A face scaled to zero along an axis has no inverse transform: the muscles' landmarks and
+  Snap to Face inverted it and every frame or the operator failed "unexpectedly".  The one
+  face check (``glue.faces.problem``) refuses such a face, with a message.
+* Bake for Farm with Start after End, when only a shading source bakes (the fine wrinkles),
+  wrote no frame and then failed to load the first one: the range is checked for every
+  bake, before anything changes.
+* A mesh in Edit Mode through another object (a linked duplicate) has no position
+  attribute: the frame stage read it.  That face is paused, as in Edit Mode.
+"""
+
+import bpy
+import pytest
+
+from tests.blender import scenes
+from tests.blender.test_curves import add_curve, uv_face
+from wrinkle_addon.glue import frame as pipeline
+
+
+def _select_only(ob):
+    for other in bpy.context.view_layer.objects:
+        other.select_set(False)
+    ob.select_set(True)
+    bpy.context.view_layer.objects.active = ob
+
+
+def _internal_errors(*obs):
+    return [pipeline.status_of(ob) for ob in obs if "Internal error" in pipeline.status_of(ob)]
+
+
+def test_a_face_scaled_to_zero_is_refused_with_a_message_not_an_internal_error(capsys):
+    face, _muscle = scenes.wrinkled_face(contraction=1.0)
+    _select_only(face)
+    assert bpy.ops.wrinkle.add_landmarks() == {"FINISHED"}
+    scene = bpy.context.scene
+    scene.frame_set(1)
+    face.scale = (1.0, 0.0, 1.0)
+    for frame in (2, 3):
+        scene.frame_set(frame)
+    assert not _internal_errors(face)
+    assert "scaled to zero" in pipeline.status_of(face)
+    assert "Expression Wrinkles: Face" not in capsys.readouterr().out  # the stage's error line
+    _select_only(face)
+    for op in (bpy.ops.wrinkle.add_muscle, bpy.ops.wrinkle.add_muscle_set):
+        with pytest.raises(RuntimeError, match="scaled to zero"):
+            op()
+    face.scale = (1.0, 1.0, 1.0)  # and back: the wrinkles return
+    scene.frame_set(4)
+    assert pipeline.status_of(face) == "" and abs(scenes.offsets(face)).max() > 0.0
+
+
+def test_snap_to_face_on_a_face_scaled_to_zero_says_why():
+    face = uv_face()
+    add_curve(face)
+    face.scale = (0.0, 1.0, 1.0)
+    _select_only(face)
+    with pytest.raises(RuntimeError, match="scaled to zero") as err:
+        bpy.ops.wrinkle.snap_curve()
+    assert "unexpectedly" not in str(err.value)
+
+
+def test_bake_for_farm_refuses_an_empty_range_when_only_the_fine_wrinkles_bake(tmp_path):
+    face = uv_face(enable=False)
+    face.ewrinkles_face.fine_wrinkles.resolution = "512"
+    _select_only(face)
+    assert bpy.ops.wrinkle.carve_fine() == {"FINISHED"}
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "shot.blend"))
+    _select_only(face)
+    with pytest.raises(RuntimeError, match="frame range 5-3 is empty") as err:
+        bpy.ops.wrinkle.bake(frame_start=5, frame_end=3)
+    assert "unexpectedly" not in str(err.value)
+    assert not (tmp_path / "wrinkle_bake").exists()
+
+
+def test_a_mesh_in_edit_mode_through_a_linked_duplicate_pauses_that_face(capsys):
+    face = uv_face(enable=False)
+    face.ewrinkles_face.fine_wrinkles.resolution = "512"
+    _select_only(face)
+    assert bpy.ops.wrinkle.carve_fine() == {"FINISHED"}
+    twin = face.copy()  # a linked duplicate: the same mesh
+    bpy.context.scene.collection.objects.link(twin)
+    _select_only(face)
+    bpy.ops.object.mode_set(mode="EDIT")
+    capsys.readouterr()  # the carving's progress lines
+    try:
+        bpy.context.scene.frame_set(2)
+        assert not _internal_errors(face, twin)
+        assert "Edit Mode" in pipeline.status_of(twin)
+        assert "Expression Wrinkles: Face" not in capsys.readouterr().out  # the stage's error line
+    finally:
+        bpy.ops.object.mode_set(mode="OBJECT")
+    bpy.context.scene.frame_set(3)
+    assert not _internal_errors(face, twin) and "Edit Mode" not in pipeline.status_of(twin)
