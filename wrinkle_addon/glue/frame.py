@@ -254,7 +254,7 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
     if not active and not enabled:
         return False
     why = faces.problem(ob)
-    if why is None and ob.mode == "EDIT":
+    if why is None and (ob.mode == "EDIT" or ob.data.is_editmode):  # also through another object
         why = "Paused in Edit Mode"
     me = ob.data
     ev = ob.evaluated_get(depsgraph).data if why is None else None
@@ -279,11 +279,16 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
         return False
     skin = meshio.read_vector_prefix(ev, stage.SKIN_ATTR if enabled else "position", n, state.skin)
     failed = {}  # source name -> its message, for a source that raised (see _run)
-    statics = {s.name: _run(ob, s, failed, _static, state, s, ob, in_scene, changes) for s in active}
-    active = [s for s in active if statics[s.name] is not _FAILED]
-    frame_inputs = [_run(ob, s, failed, s.inputs, ob, statics[s.name]) for s in active]
-    active, frame_inputs = ([s for s, i in zip(active, frame_inputs) if i is not _FAILED],
-                            tuple(i for i in frame_inputs if i is not _FAILED))
+    statics, ok, frame_inputs = {}, [], ()
+    for s in active:  # a source whose static data or inputs raise leaves this frame
+        data = _run(ob, s, failed, _static, state, s, ob, in_scene, changes)
+        if data is not _FAILED:
+            statics[s.name] = data
+            frame_in = _run(ob, s, failed, s.inputs, ob, data)
+            if frame_in is not _FAILED:
+                ok.append(s)
+                frame_inputs += (frame_in,)
+    active = ok
     # the build serials: static data rebuilt by an interactive edit (a curve or muscle moved)
     # must be written even when the skin and the frame's inputs are as before
     serials = tuple(state.statics[s.name][2] for s in active)
@@ -358,21 +363,20 @@ def _changes(depsgraph):
 _pending = {}
 
 
-def _remember(depsgraph):
-    for uid, (moved, edited) in _changes(depsgraph).items():
-        was = _pending.get(uid, (False, False))
-        _pending[uid] = (moved or was[0], edited or was[1])
+def _merge(into, changes):
+    """Add ``changes`` to ``into`` (both ``session_uid`` -> (transform, geometry)), or-ing
+    the flags of an ID in both."""
+    for uid, (moved, edited) in changes.items():
+        was = into.get(uid, (False, False))
+        into[uid] = (moved or was[0], edited or was[1])
+    return into
 
 
 def _frame_changes(depsgraph):
     """The IDs updated for this viewport frame, with those of the evaluations since the last
     frame change (:data:`_pending`)."""
-    changes = _changes(depsgraph)
-    if _pending:
-        for uid, (moved, edited) in _pending.items():
-            now = changes.get(uid, (False, False))
-            changes[uid] = (moved or now[0], edited or now[1])
-        _pending.clear()
+    changes = _merge(_changes(depsgraph), _pending)
+    _pending.clear()
     return changes
 
 
@@ -466,7 +470,7 @@ def on_depsgraph_update_post(scene, depsgraph=None):
     screen = getattr(bpy.context, "screen", None)
     if bpy.app.background or _rendering() or (screen is not None and screen.is_animation_playing):
         if depsgraph is not None and depsgraph.mode == "VIEWPORT":
-            _remember(depsgraph)
+            _merge(_pending, _changes(depsgraph))
         return  # playback is handled frame by frame
     update_scene(scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
 
