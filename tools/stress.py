@@ -24,7 +24,8 @@ muscles, curves, Empties and the face (zero, negative and NaN scales included), 
 edits (bmesh subdivision of a few edges, deleted vertices, edit mode), modifiers added
 before and after the Wrinkles modifier, moved and removed, Bake for Farm and Free Bake,
 duplicating the face (linked or not), hostile property values (NaN, infinities, huge,
-negative; crafted raw custom properties and Geometry Nodes modifier inputs), any of the
+negative; crafted raw custom properties, saved and opened again as a crafted file is, and
+Geometry Nodes modifier inputs), any of the
 add-on's operators with random settings, and Disable / Enable Wrinkles.
 
 Every action's random numbers are drawn before it runs, so ``--keep 0,3,7`` replays only
@@ -265,7 +266,8 @@ CRAFTED = (5, -1, math.nan, 1e30, "ab", "", [1, 2], [1.5], {"a": 1}, {"a": "x", 
            ["a", "b", "c"], [["a", "b"]], [b"a", b"b"])
 STAGE_ATTRS = ("wrinkle_offset", "wrinkle_skin", "wrinkle_frame")
 PROGRESS = re.compile(r"^Expression Wrinkles: .*?:( *\d+/\d+)? +\d+%")
-MIGRATION = re.compile(r"^Expression Wrinkles: (moved \d+ settings|.*: could not keep )")
+MIGRATION = re.compile(r"^Expression Wrinkles: (moved \d+ settings|.*: could not keep |"
+                       r".* held a value of the wrong type and was removed$)")
 SLOW_OPERATORS = {"refine"}  # drawn less often: each takes seconds
 
 
@@ -890,6 +892,22 @@ class Child:
             r = f"{label} = {value!r}: refused ({exc})"
         if hasattr(owner, "id_data") and owner.id_data is not None:
             owner.id_data.update_tag()
+        # the value reaches the add-on as a crafted file's does: written by another tool (so
+        # saved with none of our handlers, which would read it), then opened.  A raw list of
+        # ours replaced at run time can block Blender itself when an item is read (bpy 4.5);
+        # on load the add-on removes what has the wrong type.
+        path = str(self.work / "crafted.blend")
+        ours = [(h, fn) for h in (bpy.app.handlers.save_pre, bpy.app.handlers.depsgraph_update_post,
+                                  bpy.app.handlers.frame_change_post)
+                for fn in list(h) if getattr(fn, "__module__", "").startswith("wrinkle_addon")]
+        for h, fn in ours:
+            h.remove(fn)
+        try:
+            r += "; " + self.op("wm.save_as_mainfile", filepath=path)
+        finally:
+            for h, fn in ours:
+                h.append(fn)
+        r += "; " + self.op("wm.open_mainfile", filepath=path)
         self.update()
         return r[:300]
 

@@ -10,6 +10,13 @@ properties a 4.x file holds them in, so the copy goes through the new property g
 never through ``ob[new]``.)  Keyframes and
 drivers whose data paths start with an old name are rewritten, including the driver
 variables that read a muscle's contraction.
+
+Stored groups are also checked on load (:func:`repair`): a file (or a script) can hold
+any value under the name of one of our lists or groups, and Blender does not check it
+when it reads the list.  On bpy 4.5 reading an item of a list whose stored value is not a
+list of groups (``["a"]``, say) blocks forever inside Blender (measured: a deadlock in
+``RNA_property_pointer_get``).  Such a value is removed, with a line on the console: it
+holds nothing the add-on could use.
 """
 
 import bpy
@@ -101,8 +108,75 @@ def migrate(data=None):
     return moved
 
 
+GROUPS = ("ewrinkles_face", "ewrinkles_muscle", "ewrinkles_curve")
+
+
+def _is_group_type(struct):
+    while struct is not None:
+        if struct.identifier == "PropertyGroup":
+            return True
+        struct = struct.base
+    return False
+
+
+def _repair_group(raw, struct, where):
+    """Remove the stored values of ``raw`` (an ID property group holding the property
+    group ``struct``) whose type cannot be what ``struct`` declares for them: a list that
+    is not a list of groups, a group that is not one, an object pointer that is no ID.
+    Returns the paths removed."""
+    removed = []
+    for prop in struct.properties:
+        if prop.type not in {"POINTER", "COLLECTION"} or prop.identifier == "rna_type":
+            continue
+        stored = raw.get(prop.identifier)
+        if stored is None:
+            continue
+        path = f"{where}.{prop.identifier}"
+        if prop.type == "POINTER" and not _is_group_type(prop.fixed_type):
+            # an ID pointer: an ID, or the empty group Blender itself stores when an unset one
+            # is read (measured on bpy 4.5)
+            ok = isinstance(stored, bpy.types.ID) or (hasattr(stored, "keys") and not stored.keys())
+        elif prop.type == "POINTER":
+            ok = hasattr(stored, "keys")
+            if ok:
+                removed += _repair_group(stored, prop.fixed_type, path)
+        else:
+            ok = isinstance(stored, list) and all(hasattr(item, "keys") for item in stored)
+            if ok:
+                for i, item in enumerate(stored):
+                    removed += _repair_group(item, prop.fixed_type, f"{path}[{i}]")
+        if not ok:
+            del raw[prop.identifier]
+            removed.append(path)
+    return removed
+
+
+def repair(data=None):
+    """Remove the stored values of our groups that have the wrong type (see the module
+    doc).  Returns the paths removed."""
+    data = data or bpy.data
+    removed = []
+    for ob in data.objects:
+        if ob.library is not None:
+            continue
+        for name in GROUPS:
+            raw = ob.get(name)  # bpy 4.x; Blender 5 keeps registered properties apart
+            struct = getattr(bpy.types.Object.bl_rna.properties.get(name), "fixed_type", None)
+            if raw is None or struct is None:
+                continue
+            if not hasattr(raw, "keys"):
+                del ob[name]
+                removed.append(f"{ob.name}.{name}")
+            else:
+                removed += _repair_group(raw, struct, f"{ob.name}.{name}")
+    for path in removed:
+        print(f"Expression Wrinkles: {path} held a value of the wrong type and was removed")
+    return removed
+
+
 @persistent
 def on_load_post(*_args):
+    repair()
     n = migrate()
     if n:
         print(f"Expression Wrinkles: moved {n} settings and animation paths of version 0.2 to "
@@ -112,6 +186,7 @@ def on_load_post(*_args):
 def register():
     bpy.app.handlers.load_post.insert(0, on_load_post)  # before the frame stage's own
     try:
+        repair()
         migrate()
     except AttributeError:  # bpy.data is restricted while Blender starts up
         pass
