@@ -22,8 +22,8 @@ facial rigs (``--rig``; ``both`` runs arkit, then light, in one process):
     with different periods and phases that never reach 0 (Blender skips keys at
     0), so every frame blends all of them; plus the same Jaw bone.
 
-The face then gets the full muscle set (``build_muscle_set``: 10 roles, mirrored,
-20 muscles).  Every muscle's contraction is keyframed and never 0 on any frame
+The face then gets the full muscle set (``build_muscle_set``: 13 roles, 11 of them
+mirrored, 24 muscles).  Every muscle's contraction is keyframed and never 0 on any frame
 (0.05 at its lows): Frontalis inner and major 0.05 -> 1 -> 0.05 -> 1 and
 Frontalis outer 0.05 -> 0.8 -> 0.05 -> 0.8 at frames 1, 21, 41, 61; Corrugator
 0.05 -> 1 -> 0.05 -> 1 at 1, 11, 31, 41; every other role 0.05 -> 0.6 -> 0.05 -> 0.6

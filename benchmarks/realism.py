@@ -18,13 +18,20 @@ The faces, rigged as the sample scenes rig them (``sample_scenes/lib/rigging.py`
   a message when absent), as ``sample_scenes/scanned_head.py`` builds it: its landmarks
   from ``sample_scenes/lib/ict.py``, the facial muscle set wrinkles-only, the regions
   refined, posed by its ARKit shape keys: brow_raise = browInnerUp_L/R + browOuterUp_L/R,
-  brow_down = browDown_L/R, smile = mouthSmile_L/R, all at 1.  ``--npz PATH`` runs the
-  same on any head file with the ICT layout (its face is named after the file).
+  brow_down = browDown_L/R, smile = mouthSmile_L/R, squint = eyeSquint_L/R +
+  cheekSquint_L/R, all at 1; anger = browDown_L/R + noseSneer_L/R at 1 (the brows drawn
+  down and together, the nose wrinkled: FACS AU 4 + 9) + eyeSquint_L/R at 0.5 (the lids
+  tightened, AU 7).  ``--npz PATH`` runs the same on any head file with the ICT layout (its
+  face is named after the file; ``tools/variant_head.py`` writes one the benchmark has
+  never seen).
 * ``procedural``: ``sample_scenes/lib/headgen.py``'s head (40k vertices) as
   ``sample_scenes/head.py`` builds it: pulling muscles posed by the add-on's expression
   presets (``wrinkle.expression``): brow_raise = Surprise, brow_down = Frowning.  There is
-  no smile preset: smile contracts both Zygomaticus Major fully (keyed like the operator
-  keys a preset).
+  no smile, squint or anger preset; those contract muscles by role (keyed like the
+  operator keys a preset): smile both Zygomaticus Major fully, squint both Orbicularis
+  Oculi fully (the line is left out when the face has no such muscle), anger the
+  Corrugators, the Procerus and the Nasalis fully and the Orbicularis Oculi at 0.5 (the
+  roles the face has).
 
 Each pose is a frame; on it the add-on's own frame stage runs (the handler), and the
 heights are computed with the functions it calls: the muscle source's ``build`` (the plan,
@@ -44,7 +51,19 @@ nearest vertex's posed position):
   nasolabial band is 0.3 mouth half-widths (corner to midline) either side of the segment
   from 0.1 of that beside and above the nose's wing to 0.4 of it beside and 0.2 below the
   mouth corner;
-* eyelids and lips: the add-on's zones (``core.zones.face_zones``), on the rest mesh.
+* eyelids and lips: the add-on's zones (``core.zones.face_zones``), on the rest mesh;
+* crow's feet (squint): per side the outer eye corner, estimated on the rest mesh as the
+  lateral end of the zones' eyelid ellipse (the eye's centre moved outward by
+  ``zones.EYELID["half_width"]`` times the eyes' distance E, at the eye's height and depth), is the
+  nearest vertex's posed position; E is twice the rest eye-to-glabella distance.  The
+  grid is seen along the mean normal of the posed skin lateral of the corner (turned
+  about the vertical through the corner) and covers 0 to 0.6 E outward and +-0.45 E in
+  height; the measure keeps 0.1 E to 0.6 E;
+* nose root (anger): x within 0.25 E of the glabella, z from the eyes' mean height up to
+  the glabella.
+
+The smile's knots are logged with the muscles whose regions hold the vertex nearest each
+(their fully formed heights there, ``system.formed_heights``).
 """
 
 import argparse
@@ -68,8 +87,15 @@ ICT_POSES = {
     "brow_raise": {"browInnerUp_L": 1.0, "browInnerUp_R": 1.0, "browOuterUp_L": 1.0, "browOuterUp_R": 1.0},
     "brow_down": {"browDown_L": 1.0, "browDown_R": 1.0},
     "smile": {"mouthSmile_L": 1.0, "mouthSmile_R": 1.0},
+    "squint": {"eyeSquint_L": 1.0, "eyeSquint_R": 1.0, "cheekSquint_L": 1.0, "cheekSquint_R": 1.0},
+    "anger": {"browDown_L": 1.0, "browDown_R": 1.0, "noseSneer_L": 1.0, "noseSneer_R": 1.0,
+              "eyeSquint_L": 0.5, "eyeSquint_R": 0.5},
 }
-PROCEDURAL_POSES = {"brow_raise": "SURPRISE", "brow_down": "FROWN", "smile": {"ZYGOMATICUS_MAJOR": 1.0}}
+PROCEDURAL_POSES = {"brow_raise": "SURPRISE", "brow_down": "FROWN", "smile": {"ZYGOMATICUS_MAJOR": 1.0},
+                    "squint": {"ORBICULARIS_OCULI": 1.0},
+                    "anger": {"CORRUGATOR": 1.0, "PROCERUS": 1.0, "NASALIS": 1.0, "ORBICULARIS_OCULI": 0.5}}
+# a pose by role is left out when the face has none of its roles in this set
+REQUIRED_ROLES = {"squint": {"ORBICULARIS_OCULI"}}
 BROWS = ("brow_inner_L", "brow_inner_R", "brow_mid_L", "brow_mid_R", "brow_outer_L", "brow_outer_R")
 
 
@@ -107,15 +133,19 @@ def build_procedural(target_verts=40000):
     head = headgen.make_head(target_verts)
     face = scene_setup.mesh_object_from_arrays("Head", head["positions"], head["quads"], head["corner_uvs"])
     rigging.wrinkle_face(face, head["landmarks"])
+    from wrinkle_addon.glue.muscles import objects
+
     scene = bpy.context.scene
+    roles = {m.ewrinkles_muscle.role for m in objects.live_muscles(face)}
     frames = {}
     for i, (name, pose) in enumerate(PROCEDURAL_POSES.items()):
+        if name in REQUIRED_ROLES and not REQUIRED_ROLES[name] & roles:
+            log(f"procedural: no {', '.join(sorted(REQUIRED_ROLES[name]))} muscle: {name} left out")
+            continue
         frames[name] = frame = i + 1
         if isinstance(pose, str):
             rigging.key_expressions(face, {frame: pose})
             continue
-        from wrinkle_addon.glue.muscles import objects
-
         scene.frame_set(frame)
         for m in objects.live_muscles(face):  # keyed as the expression operator keys a preset
             m.ewrinkles_muscle.contraction = pose.get(m.ewrinkles_muscle.role, 0.0)
@@ -166,6 +196,20 @@ class FaceHeights:
         check = float(np.abs(shown - (skin + offset)).max()) * self.mm
         return heights.astype(np.float64) * self.mm, (skin + offset).astype(np.float64) * self.mm, check
 
+    def formed_at(self, vertex):
+        """[(muscle name, its fully formed height at ``vertex`` in mm)] for the muscles
+        whose wrinkling region holds it, largest |height| first."""
+        from wrinkle_addon.core.muscles import system
+
+        plan = self.static.plan
+        strength = self.face.ewrinkles_face.strength
+        out = []
+        for m, name in enumerate(self.static.names):
+            v = float(system.formed_heights(plan, m, strength)[vertex]) * self.mm
+            if v != 0.0:
+                out.append((name, v))
+        return sorted(out, key=lambda t: -abs(t[1]))
+
 
 # --------------------------------------------------------------------------- regions
 def posed_landmarks(rest, posed_mm, landmarks):
@@ -205,6 +249,65 @@ def below_eyes(lm):
     return x, (lm["chin"][2], min(lm["eye_L"][2], lm["eye_R"][2]))
 
 
+def interocular(landmarks, mm):
+    """E: twice the rest eye-to-glabella distance across, in mm."""
+    return 2.0 * abs(float(landmarks["eye_L"][0]) - float(landmarks["glabella"][0])) * mm
+
+
+def eye_corners(landmarks):
+    """The outer eye corners on the rest mesh ({'eye_corner_L': p, 'eye_corner_R': p}, the
+    landmarks' units): the lateral ends of ``core.zones``' eyelid ellipses (the right one
+    mirrored about the glabella, as there)."""
+    from wrinkle_addon.core import zones
+
+    g, bo, eye = (np.asarray(landmarks[k], float) for k in ("glabella", "brow_outer_L", "eye_L"))
+    reach = abs(eye[0] - g[0]) + zones.EYELID["half_width"] * 2.0 * abs(eye[0] - g[0])
+    out = {}
+    for side, s in (("L", 1.0), ("R", -1.0)):
+        c = eye.copy()
+        c[0] = g[0] + s * reach
+        out[f"eye_corner_{side}"] = c
+    return out
+
+
+def temple_grid(posed, tris, heights, corner, s, e, step):
+    """The crow's feet grid of one side (``s`` +1 left, -1 right): the posed skin turned
+    about the vertical through ``corner`` so that its mean normal lateral of the corner
+    faces the viewer, resampled 0 to 0.6 E outward and +-0.45 E in height.  Returns
+    (grid, the turn in degrees)."""
+    c = np.asarray(corner, float)
+    p = posed[tris]
+    centre = p.mean(axis=1)
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # area-weighted
+    lateral = s * (centre[:, 0] - c[0])
+    near = ((lateral >= 0.05 * e) & (lateral <= 0.6 * e) & (np.abs(centre[:, 2] - c[2]) <= 0.45 * e)
+            & (centre[:, 1] - c[1] <= 0.5 * e) & ((n[:, 1] < 0) | (s * n[:, 0] > 0)))
+    m = n[near].sum(axis=0) if near.any() else np.array([0.0, -1.0, 0.0])
+    yaw = float(np.arctan2(m[0], -m[1])) if np.hypot(m[0], m[1]) > 0 else 0.0
+    yaw = float(np.clip(yaw, -np.radians(80.0), np.radians(80.0)))
+    ca, sa = np.cos(-yaw), np.sin(-yaw)  # turn the normal's horizontal part onto -y
+    d = posed - c
+    turned = np.stack([c[0] + d[:, 0] * ca - d[:, 1] * sa, c[1] + d[:, 0] * sa + d[:, 1] * ca, posed[:, 2]],
+                      1)
+    x = sorted((c[0], c[0] + s * 0.6 * e))
+    z = (c[2] - 0.45 * e, c[2] + 0.45 * e)
+    return rm.front_grid(turned, tris, heights, x, z, step), float(np.degrees(yaw))
+
+
+def nose_root_box(lm, e):
+    g = lm["glabella"]
+    eye_z = 0.5 * (lm["eye_L"][2] + lm["eye_R"][2])
+    return (g[0] - 0.25 * e, g[0] + 0.25 * e), (min(eye_z, g[2]), max(eye_z, g[2]))
+
+
+def nearest_front_vertex(posed, x, z, radius=1.5):
+    """The front-most posed vertex within ``radius`` mm of (x, z) in the front plane (or
+    the nearest there)."""
+    d = np.hypot(posed[:, 0] - x, posed[:, 2] - z)
+    close = np.flatnonzero(d <= radius)
+    return int(close[np.argmin(posed[close, 1])]) if len(close) else int(np.argmin(d))
+
+
 def nasolabial_bands(grid, lm):
     g = lm["glabella"]
     band = np.zeros(grid.h.shape, bool)
@@ -223,7 +326,8 @@ def nasolabial_bands(grid, lm):
 # --------------------------------------------------------------------------- measures
 def measure(name, expression, heights, posed, fh, landmarks, zones, step, dump):
     tris = fh.mesh.tris
-    lm = posed_landmarks(fh.mesh.rest, posed, landmarks)
+    lm = posed_landmarks(fh.mesh.rest, posed, {**landmarks, **eye_corners(landmarks)})
+    e = interocular(landmarks, fh.mm)
     row = {"face": name, "expression": expression}
     grids = {}
     if expression == "brow_raise":
@@ -252,11 +356,51 @@ def measure(name, expression, heights, posed, fh, landmarks, zones, step, dump):
         row["nasolabial_deepest"] = hit
         log(f"{name} {expression}: deepest below the eyes {low:.3f} mm, in the nasolabial bands "
             f"{in_band:.3f} mm, elsewhere {other:.3f} mm")
+        got = rm.knots(grid)
+        row["knots"] = got["knots"]
+        log(f"{name} {expression}: knots: typical furrow {got['furrow_depth']:.3f} mm, "
+            f"bulge {got['bulge']:.3f} mm")
+        for x, z, h, dist in got["where"]:
+            mc = {side: lm[f"mouth_corner_{side}"] for side in "LR"}
+            side = min(mc, key=lambda k: np.hypot(mc[k][0] - x, mc[k][2] - z))
+            log(f"{name} {expression}: knot at x {x:.1f} z {z:.1f} mm (nub {h:.2f} mm high, a slit "
+                f"{dist:.1f} mm away; {x - mc[side][0]:+.1f}, {z - mc[side][2]:+.1f} mm from "
+                f"mouth_corner_{side})")
+            try:
+                v = nearest_front_vertex(posed, x, z)
+                log(f"{name} {expression}:   vertex {v} (height {heights[v]:.2f} mm) lies in the regions of: "
+                    + ", ".join(f"{n} ({f:+.2f} mm formed)" for n, f in fh.formed_at(v)))
+            except Exception as err:  # noqa: BLE001 - a diagnostic only
+                log(f"{name} {expression}:   no per-muscle breakdown: {err!r}")
+    elif expression == "squint":
+        sides = []
+        for side, s in (("L", 1.0), ("R", -1.0)):
+            corner = lm[f"eye_corner_{side}"]
+            grids[f"crow_{side}"] = grid = temple_grid(posed, tris, heights, corner, s, e, step)[0]
+            got = rm.crows_feet_side(grid, (corner[0], corner[2]), s, e)
+            sides.append(got)
+            found = sorted((f for f in got["furrows"] if f[1] > 0), key=lambda f: -f[1])[:8]
+            log(f"{name} {expression}: side {side}: corner x {corner[0]:.1f} z {corner[2]:.1f} mm, "
+                f"E {e:.1f} mm, {got['count']} crow's feet; "
+                "(direction deg, length >= 0.2 mm deep, depth mm, radii mm) "
+                + ", ".join(f"({d:.0f}, {length:.1f}, {dp:.2f}, {r0:.0f}-{r1:.0f})"
+                            for d, length, dp, r0, r1 in found))
+        row.update(rm.crows_feet(sides))
+    elif expression == "anger":
+        x, z = nose_root_box(lm, e)
+        grids["nose_root"] = grid = rm.front_grid(posed, tris, heights, x, z, step)
+        got = rm.procerus(grid)
+        row["procerus_line"] = got["procerus_line"]
+        found = sorted(got["lines"], key=lambda f: -f[1])[:6]
+        log(f"{name} {expression}: nose root x {x[0]:.1f}..{x[1]:.1f} z {z[0]:.1f}..{z[1]:.1f} mm: "
+            "(angle from horizontal deg, length >= 0.2 mm deep, depth mm) "
+            + ", ".join(f"({a:.0f}, {length:.1f}, {d:.2f})" for a, length, d in found))
     row["eyelid_lip_max_mm"] = rm.max_abs(heights, zones.eyelid | zones.lip)
     if dump:
         Path(dump).mkdir(parents=True, exist_ok=True)
         arrays = {f"{k}_{a}": getattr(g, a) for k, g in grids.items()
                   for a in ("h", "y", "xs", "zs", "band") if hasattr(g, a)}
+        arrays.update({f"lm_{k}": np.asarray(v, float) for k, v in lm.items()})
         np.savez_compressed(Path(dump) / f"{name}_{expression}.npz", **arrays)
     return row
 

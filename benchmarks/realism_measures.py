@@ -59,6 +59,23 @@ hairline (z) (the benchmark takes these from the posed landmarks).  Furrow point
   of the two furrows (mean of -h) and the highest height between them (the bulge, at
   least 0); the ratio of the medians over all such pairs, capped at 100 (a furrow with
   no bulge at all).  None where no column has two furrows.
+* **Depth along a furrow** (``depth_cv_along``, goal >= 0.15: a real furrow is deeper in
+  places and fades out): per row, its longest ridge-line's depth sampled every 1 mm of its
+  3D path (the path smoothed over +-1 mm; the depth at each grid line is the vertex of the
+  parabola through the deepest cell and its two neighbours across, so a slanting furrow is
+  not made uneven by the grid), the coefficient of variation (population standard
+  deviation over mean) of those samples; the median over the rows.  None without rows.
+* **Taper** (``taper_mm``, goal >= 5: furrows fade out gradually, they do not stop
+  short): per end of every ridge-line of the rows, the 3D path length (as above) from
+  the end, where the depth is down to the detection threshold, inward to the first point
+  whose depth (linearly interpolated between grid lines) reaches the ridge-line's typical
+  depth, the median of its 1 mm samples.  A linear fade of length T from a plateau of
+  depth D so gives T (1 - 0.1 / D).  An end cut off by the region is not an end: when a
+  cell within ``window_mm + gap_mm`` beyond the end along the furrow (and within
+  ``window_mm`` across) lies outside the grid or is invalid, the furrow may run on out of
+  sight, and that end is not counted; nor are the ends of a ridge-line whose typical
+  depth is under twice the detection threshold (0.2 mm: it is all fade).  The shortest
+  over all counted ends; None when there are none.
 
 Glabella, brow down (:func:`glabella`)
 --------------------------------------
@@ -68,14 +85,61 @@ judged), window 1 mm.  Per ridge-line: its angle from vertical (line x = a + b z
 **deep length**, the 3D length of its longest stretch (gaps up to ``gap_mm`` bridged)
 where it is at least ``depth_mm`` (0.3 mm) deep, along its path smoothed over +-1 mm;
 its depth, the largest -h on it.  A **frown line** is within ``max_angle_deg`` (30°) of
-vertical with a deep length of at least ``length_mm`` (10 mm).
+vertical, deeper than ``depth_mm`` (0.3 mm) over a deep length of at least ``count_mm``
+(3 mm: shorter is a dimple, not a line).
 
-* ``glabella_furrows_per_side``: the frown lines on the side that has fewer (goal >= 1
-  each side, so >= 1).
+* ``glabella_furrows_per_side``: the frown lines on the side that has fewer (goal: 1 to 2
+  on each side).
+* ``glabella_separation_mm``: per pair of frown lines on one side, their distance across
+  (|x difference|, the median over the grid lines (z) both pass; when they share none, the
+  smallest distance between their points); the smallest over the pairs of both sides
+  (goal >= 3: two lines closer than that read as one double line).  None when no side
+  has two frown lines.
 * ``glabella_length_mm``: on each side the largest deep length of a near-vertical
   ridge-line; the smaller of the two sides (goal >= 10).
 * ``glabella_depth_mm``: on each side the deepest near-vertical ridge-line; the smaller
-  of the two sides (goal >= 0.3).
+  of the two sides (goal >= 0.5).
+
+Anger: the line at the root of the nose (:func:`procerus`)
+-----------------------------------------------------------
+The grid on the midline between the eyes (the benchmark's box: x within a quarter of the
+interocular distance E of the glabella, z from the eyes' height up to the glabella).
+Furrow points across z at 0.05 mm or deeper, window 1 mm, as for the forehead.
+``procerus_line`` is True when a ridge-line there lies within ``max_angle_deg`` (30°) of
+horizontal (its least-squares line z = a + b x) and has a deep length (as the
+glabella's) of at least ``length_mm`` (5 mm) where it is at least ``depth_mm`` (0.2 mm)
+deep (goal: True).
+
+Squint: crow's feet (:func:`crows_feet_side`, :func:`crows_feet`)
+-----------------------------------------------------------------
+Per side, around the outer eye corner (the benchmark estimates it as the lateral end of
+the add-on's eyelid ellipse, ``core.zones``: the eye's centre moved outward by
+``EYELID["half_width"]`` times the eyes' distance E, at the eye's height; the grid is
+seen along the mean normal of the skin there, turned about the vertical, so that the
+temple is not foreshortened).  The region is the box from 0.1 E to 0.6 E outward of the
+corner and +-0.45 E in height about it.  Crow's feet fan out from the corner, so the
+grid is resampled (bilinearly) in polar coordinates about the corner: angle (from the
+outward horizontal, up positive) by radius (0.1 E to 0.75 E, ``step`` apart; the angle's
+step is ``step`` of arc at the largest radius), samples outside the box invalid.  A
+furrow point is a sample at least 0.1 mm deep and no higher than every sample within
+1 mm of arc on both sides *across the angle*; points at neighbouring radii (gaps up to
+1 mm bridged) are linked when they are at most one radius step of arc apart per step
+(so a line within 45° of radial is followed).  Each connected set is a ridge-line; its
+angle at each radius is the parabola vertex through its deepest sample and the two
+beside it.  Per ridge-line: its **deep length** (3D, path smoothed over +-1 mm, as the
+glabella's) where at least 0.2 mm deep; its **direction**, the angle from the outward
+horizontal of the principal axis of that deep stretch; its depth, the largest -h.  A
+**crow's foot** has a deep length of at least ``count_mm`` (4 mm; shorter is a dimple).
+
+* ``crows_feet_per_side``: the crow's feet on the side that has fewer (goal 2 to 5).
+* ``crows_feet_fan_deg``: per side the spread of the crow's feet's directions (largest
+  minus smallest; 0 for one); the larger of the two sides (goal: they fan out, within
+  about 90°).  None without crow's feet.
+* ``crows_feet_length_mm``: the shortest deep length of any crow's foot of either side
+  (goal >= 8).  None without crow's feet.
+* ``crows_feet_depth_mm``: per side the deepest crow's foot (0 without one); the smaller
+  of the two sides (goal >= 0.2).
+* ``eyelid_lip_max_mm`` as below (goal 0: none on the lids).
 
 Smile: the nasolabial fold (:func:`deepest_in_band`)
 -----------------------------------------------------
@@ -83,6 +147,23 @@ Below the eyes (the grid from the chin to the eyes), the nasolabial bands are th
 within a distance of the segment from beside the nose's wing to beside the mouth corner
 (set by the benchmark from the landmarks).  ``nasolabial_deepest`` is True when the lowest
 height of all valid cells below the eyes is negative (a furrow) and lies in a band.
+
+Smile: knots (:func:`knots`)
+----------------------------
+Where folds of several muscles pile up, a dark slit forms beside a bright nub: a sharp
+furrow far deeper than the region's wrinkles right beside a sharp bump far higher than
+its bulges.  On the grid below the eyes: the region's **typical furrow depth** D is the
+median of -h over its furrow cells (cells at least 0.1 mm deep, no higher than every
+cell within 1 mm along x, or along z, and lower than the two cells 1 mm away that way),
+its **typical bulge** B the median of h over its bulge cells (the same for -h, at least
+0.05 mm high).  The curvatures are the
+eigenvalues k1 <= k2 of the Hessian of h smoothed with a Gaussian of sigma 0.5 mm
+(central differences), in 1/mm.  A **slit** cell is at least max(2 D, 0.3 mm) deep with
+k2 >= 0.2 (a narrow trough); a **nub** cell is at least max(2 B, 0.2 mm) high with
+k1 <= -0.2 (a narrow crest).  A **knot** is a connected set (8-neighbours) of nub cells
+with a slit cell within 2.5 mm (about 2 mm; 5 cells) of one of them.  ``knots`` is their
+number (goal 0).  A clean fold passes: its bulge is low and round (and a single fold is
+the region's typical furrow, never twice as deep as itself).
 
 Eyelids and lips (:func:`max_abs`)
 -----------------------------------
@@ -96,8 +177,8 @@ import numpy as np
 
 from wrinkle_addon.core import raster
 
-__all__ = ["Grid", "front_grid", "ridges", "forehead", "glabella", "deepest_in_band", "segment_band",
-           "max_abs", "RATIO_CAP"]
+__all__ = ["Grid", "front_grid", "ridges", "forehead", "glabella", "procerus", "crows_feet_side",
+           "crows_feet", "knots", "deepest_in_band", "segment_band", "max_abs", "curvatures", "RATIO_CAP"]
 
 RATIO_CAP = 100.0
 
@@ -173,7 +254,8 @@ class Ridge:
     """One ridge-line of minima in the (across, along) frame: per along-line it passes,
     ``cols`` (ascending along index), ``across`` (mean across position, mm), ``along``
     (mm), ``depth`` (the largest -h there), ``y`` (depth of the surface there, mm) and
-    ``cell`` (the across index of its deepest point there)."""
+    ``cell`` (the across index of its deepest point there); ``peak`` (the depth of the
+    vertex of the parabola through that point and its two neighbours across: sub-cell)."""
 
     cols: np.ndarray
     along: np.ndarray
@@ -181,6 +263,7 @@ class Ridge:
     depth: np.ndarray
     y: np.ndarray
     cell: np.ndarray
+    peak: np.ndarray = None
 
     @property
     def extent(self):
@@ -274,6 +357,10 @@ def ridges(grid, across, detect_mm, window_mm=1.0, gap_mm=1.0):
     curv = hm - 2.0 * h0 + hp
     frac = np.where(curv > 0, 0.5 * (hm - hp) / np.where(curv > 0, curv, 1.0), 0.0)
     sub = across_pos[ii] + step * np.clip(frac, -0.5, 0.5)
+    # the parabola's vertex value (h0 is a minimum, so the vertex lies within half a cell)
+    peak_h = h0 - np.where(curv > 0, (hm - hp) ** 2 / (8.0 * np.where(curv > 0, curv, 1.0)), 0.0)
+    peak_of = np.full(h.shape, np.nan)
+    peak_of[ii, jj] = -peak_h
     out = []
     for label in np.unique(lab):
         sel = lab == label
@@ -283,7 +370,7 @@ def ridges(grid, across, detect_mm, window_mm=1.0, gap_mm=1.0):
         depth_cells = -h[ci, cj]
         deepest = np.array([ci[cj == c][np.argmax(depth_cells[cj == c])] for c in cols])
         out.append(Ridge(cols=cols, along=along_pos[cols], across=pos, depth=-h[deepest, cols],
-                         y=y[deepest, cols], cell=deepest))
+                         y=y[deepest, cols], cell=deepest, peak=peak_of[deepest, cols]))
     return out
 
 
@@ -349,16 +436,35 @@ def _rows(found, merge_mm, end_mm=3.0):
 def forehead(grid, brow_angle_deg=0.0, detect_mm=0.1, window_mm=1.0, gap_mm=1.0, min_fraction=0.1,
              merge_mm=3.0):
     """The brow-raise measures on the forehead ``grid`` (see the module doc): a dict with
-    ``furrows``, ``continuity``, ``angle_deg``, ``spacing_cv``, ``furrow_bulge_ratio``."""
+    ``furrows``, ``continuity``, ``angle_deg``, ``spacing_cv``, ``furrow_bulge_ratio``,
+    ``depth_cv_along``, ``taper_mm``."""
     width = float(grid.xs[-1] - grid.xs[0]) if len(grid.xs) > 1 else 0.0
     found = [r for r in ridges(grid, "z", detect_mm, window_mm, gap_mm)
              if width > 0 and r.extent >= min_fraction * width]
     spacing = _spacing(found)
     rows = _rows(found, merge_mm if spacing is None else 0.5 * spacing)
     out = {"furrows": len(rows), "continuity": 0.0, "angle_deg": None, "spacing_cv": None,
-           "furrow_bulge_ratio": None}
+           "furrow_bulge_ratio": None, "depth_cv_along": None, "taper_mm": None}
     if not rows:
         return out
+    smooth = int(round(1.0 / grid.step))  # +-1 mm
+    window = max(1, int(round(window_mm / grid.step)))
+    reach = int(round((window_mm + gap_mm) / grid.step))
+    cvs, tapers = [], []
+    for row in rows:
+        longest = max(row.ridges, key=lambda r: r.extent)
+        samples = _depth_profile(longest, smooth)[2]
+        cvs.append(float(np.std(samples) / np.mean(samples)) if np.mean(samples) > 0 else 0.0)
+        for r in row.ridges:
+            s_len, depth, samples = _depth_profile(r, smooth)
+            typical = float(np.median(samples))
+            if typical < 2.0 * detect_mm:  # all fade: no room to taper
+                continue
+            for at_start in (True, False):
+                if not _cut(grid.h, r, at_start, window, reach):
+                    tapers.append(_taper(s_len, depth, typical, at_start))
+    out["depth_cv_along"] = float(np.median(cvs))
+    out["taper_mm"] = float(min(tapers)) if tapers else None
     out["continuity"] = float(np.median([max(r.extent for r in row.ridges) / width for row in rows]))
     out["angle_deg"] = float(np.median([_row_angle(row, brow_angle_deg) for row in rows]))
     centre = 0.5 * (grid.xs[0] + grid.xs[-1])
@@ -368,6 +474,55 @@ def forehead(grid, brow_angle_deg=0.0, detect_mm=0.1, window_mm=1.0, gap_mm=1.0,
         out["spacing_cv"] = float(np.std(gaps) / np.mean(gaps)) if np.mean(gaps) > 0 else None
     out["furrow_bulge_ratio"] = _furrow_bulge(grid, rows)
     return out
+
+
+def _path_length(r, smooth):
+    """Cumulative 3D length (n,) along ``r``'s path, its across and depth y smoothed over
+    ``2 smooth + 1`` samples."""
+    pts = np.stack([_smooth(r.across, smooth), r.along, _smooth(r.y, smooth)], 1)
+    if len(pts) < 2:
+        return np.zeros(len(pts))
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+
+
+def _depth_profile(r, smooth, spacing=1.0):
+    """(path length at each point, depth at each point (the parabola vertex), the depth
+    sampled every ``spacing`` mm of path, linearly interpolated)."""
+    s_len = _path_length(r, smooth)
+    depth = np.asarray(r.peak if r.peak is not None else r.depth, float)
+    t = np.arange(0.0, s_len[-1] + 1e-9, spacing)
+    return s_len, depth, np.interp(t, s_len, depth)
+
+
+def _taper(s_len, depth, typical, at_start):
+    """The path length from ``r``'s start (or end) inward to where its depth first reaches
+    ``typical`` (linearly interpolated between points)."""
+    if not at_start:
+        s_len, depth = s_len[-1] - s_len[::-1], depth[::-1]
+    reach = np.flatnonzero(depth >= typical)
+    if len(reach) == 0:
+        return float(s_len[-1])
+    i = int(reach[0])
+    if i == 0:
+        return 0.0
+    f = (typical - depth[i - 1]) / max(depth[i] - depth[i - 1], 1e-12)
+    return float(s_len[i - 1] + f * (s_len[i] - s_len[i - 1]))
+
+
+def _cut(h, r, at_start, window, reach):
+    """Whether ``r``'s start (or end) may be cut off by the region: a cell up to ``reach``
+    cells beyond it along, within ``window`` across of its last point, lies off the grid
+    ``h`` (across, along) or is invalid."""
+    j, k = (r.cols[0], r.cell[0]) if at_start else (r.cols[-1], r.cell[-1])
+    sign = -1 if at_start else 1
+    for m in range(1, reach + 1):
+        jj = int(j) + sign * m
+        lo, hi = int(k) - window, int(k) + window
+        if jj < 0 or jj >= h.shape[1] or lo < 0 or hi >= h.shape[0]:
+            return True
+        if not np.all(np.isfinite(h[lo:hi + 1, jj])):
+            return True
+    return False
 
 
 def _row_angle(row, reference_deg):
@@ -428,27 +583,300 @@ def _smooth(v, half):
     return (c[hi] - c[lo]) / (hi - lo)
 
 
-def glabella(grid, midline_x, detect_mm=0.05, window_mm=1.0, gap_mm=1.0, depth_mm=0.3, length_mm=10.0,
+def glabella(grid, midline_x, detect_mm=0.05, window_mm=1.0, gap_mm=1.0, depth_mm=0.3, count_mm=3.0,
              max_angle_deg=30.0):
     """The brow-down measures on the glabella ``grid`` (see the module doc): a dict with
-    ``glabella_furrows_per_side``, ``glabella_length_mm``, ``glabella_depth_mm``, and per
-    side (``sides``) the ridge-lines as (angle from vertical, deep length, depth)."""
+    ``glabella_furrows_per_side``, ``glabella_separation_mm``, ``glabella_length_mm``,
+    ``glabella_depth_mm``, and per side (``sides``) the ridge-lines as (angle from
+    vertical, deep length, depth)."""
     gap_cols = max(1, int(round(gap_mm / grid.step)) + 1)
     smooth = int(round(1.0 / grid.step))  # +-1 mm
     sides = {"L": [], "R": []}
+    lines = {"L": [], "R": []}
     for r in ridges(grid, "x", detect_mm, window_mm, gap_mm):
         _a, b = r.fit()
         angle = float(np.degrees(np.arctan(abs(b))))
         side = "L" if np.mean(r.across) >= midline_x else "R"
-        sides[side].append((angle, _deep_length(r, depth_mm, gap_cols, smooth), float(np.max(r.depth))))
-    counts, lengths, depths = [], [], []
-    for found in sides.values():
+        found = (angle, _deep_length(r, depth_mm, gap_cols, smooth), float(np.max(r.depth)))
+        sides[side].append(found)
+        if found[0] <= max_angle_deg and found[1] >= count_mm:
+            lines[side].append(r)
+    counts, lengths, depths, gaps = [], [], [], []
+    for side, found in sides.items():
         upright = [f for f in found if f[0] <= max_angle_deg]
-        counts.append(sum(1 for f in upright if f[1] >= length_mm))
+        counts.append(len(lines[side]))
         lengths.append(max((f[1] for f in upright), default=0.0))
         depths.append(max((f[2] for f in upright), default=0.0))
-    return {"glabella_furrows_per_side": int(min(counts)), "glabella_length_mm": float(min(lengths)),
-            "glabella_depth_mm": float(min(depths)), "sides": sides}
+        got = lines[side]
+        gaps += [_separation(a, b) for i, a in enumerate(got) for b in got[i + 1:]]
+    return {"glabella_furrows_per_side": int(min(counts)),
+            "glabella_separation_mm": float(min(gaps)) if gaps else None,
+            "glabella_length_mm": float(min(lengths)), "glabella_depth_mm": float(min(depths)),
+            "sides": sides}
+
+
+def _separation(a, b):
+    """The distance across between ridge-lines ``a`` and ``b``: the median over the grid
+    lines both pass, else the smallest distance between their points."""
+    shared, ia, ib = np.intersect1d(a.cols, b.cols, return_indices=True)
+    if len(shared):
+        return float(np.median(np.abs(a.across[ia] - b.across[ib])))
+    d = np.hypot(a.across[:, None] - b.across[None], a.along[:, None] - b.along[None])
+    return float(d.min())
+
+
+# --------------------------------------------------------------------------- procerus
+def procerus(grid, detect_mm=0.05, window_mm=1.0, gap_mm=1.0, depth_mm=0.2, length_mm=5.0,
+             max_angle_deg=30.0):
+    """The anger measure on the nose-root ``grid`` (see the module doc): a dict with
+    ``procerus_line`` and ``lines``, the ridge-lines as (angle from horizontal, deep
+    length, depth)."""
+    gap_cols = max(1, int(round(gap_mm / grid.step)) + 1)
+    smooth = int(round(1.0 / grid.step))
+    lines = []
+    for r in ridges(grid, "z", detect_mm, window_mm, gap_mm):
+        _a, b = r.fit()
+        lines.append((float(np.degrees(np.arctan(abs(b)))), _deep_length(r, depth_mm, gap_cols, smooth),
+                      float(np.max(r.depth))))
+    hit = any(a <= max_angle_deg and length >= length_mm for a, length, _d in lines)
+    return {"procerus_line": bool(hit), "lines": lines}
+
+
+# --------------------------------------------------------------------------- crow's feet
+def _sample(grid, values, X, Z):
+    """``values`` (a grid-shaped array) bilinearly at the points (X, Z); NaN off the grid or
+    where a corner is invalid."""
+    nz, nx = grid.h.shape
+    out = np.full(np.shape(X), np.nan)
+    if nz < 2 or nx < 2:
+        return out
+    fi = (np.asarray(X, float) - grid.xs[0]) / grid.step
+    fk = (np.asarray(Z, float) - grid.zs[0]) / grid.step
+    ok = (fi >= 0) & (fk >= 0) & (fi <= nx - 1) & (fk <= nz - 1)
+    i0 = np.clip(np.floor(np.where(ok, fi, 0)).astype(int), 0, nx - 2)
+    k0 = np.clip(np.floor(np.where(ok, fk, 0)).astype(int), 0, nz - 2)
+    a, c = fi - i0, fk - k0
+    v = (values[k0, i0] * (1 - a) * (1 - c) + values[k0, i0 + 1] * a * (1 - c)
+         + values[k0 + 1, i0] * (1 - a) * c + values[k0 + 1, i0 + 1] * a * c)
+    return np.where(ok, v, np.nan)
+
+
+def crows_feet_side(grid, corner, outward, interocular, detect_mm=0.1, window_mm=1.0, gap_mm=1.0,
+                    depth_mm=0.2, count_mm=4.0, inner=0.1, outer=0.6, half_height=0.45, radius_max=0.75):
+    """The crow's feet of one side on ``grid`` around the outer eye ``corner`` ((x, z),
+    mm), ``outward`` +1 (toward +x) or -1, ``interocular`` the eyes' distance E (mm) (see
+    the module doc).  A dict: ``count``, ``fan_deg`` (None without crow's feet),
+    ``depth`` (0 without), ``lengths`` (of the crow's feet), and ``furrows``, every
+    ridge-line as (direction deg, deep length, depth, inner and outer radius of its deep
+    stretch)."""
+    cx, cz = float(corner[0]), float(corner[1])
+    e, step = float(interocular), grid.step
+    out = {"count": 0, "fan_deg": None, "depth": 0.0, "lengths": [], "furrows": []}
+    r0, r1 = inner * e, radius_max * e
+    if not (e > 0 and r1 > r0 and grid.h.size):
+        return out
+    radius = r0 + step * np.arange(int(np.floor((r1 - r0) / step + 1e-9)) + 1)
+    dtheta = step / radius[-1]
+    n_half = int(np.floor(0.5 * np.pi / dtheta))
+    theta = dtheta * np.arange(-n_half, n_half + 1)
+    T, R = np.meshgrid(theta, radius, indexing="ij")  # (angle, radius)
+    X, Z = cx + outward * R * np.cos(T), cz + R * np.sin(T)
+    lateral = outward * (X - cx)
+    inside = ((lateral >= inner * e - 1e-9) & (lateral <= outer * e + 1e-9)
+              & (np.abs(Z - cz) <= half_height * e + 1e-9))
+    h = np.where(inside, _sample(grid, grid.h, X, Z), np.nan)
+    y = np.where(inside, _sample(grid, grid.y, X, Z), np.nan)
+    # furrow points: minima across the angle within window_mm of arc (more samples near the corner)
+    win = np.maximum(1, np.round(window_mm / (radius * dtheta))).astype(int)
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(h) & (h <= -detect_mm)
+        for sft in range(1, int(win.max()) + 1):
+            active = (win >= sft)[None, :]
+            ok &= ((h <= _shift(h, sft, 0)) & (h <= _shift(h, -sft, 0))) | ~active
+    ii, jj = np.nonzero(ok)  # (angle, radius)
+    if len(ii) == 0:
+        return out
+    index = np.full(h.shape, -1, np.int64)
+    index[ii, jj] = np.arange(len(ii))
+    gap = max(1, int(round(gap_mm / step)) + 1)
+    pairs = []
+    for g in range(1, gap + 1):
+        r_mid = radius[jj] + 0.5 * g * step
+        dmax = int(np.ceil(g * step / (radius[0] * dtheta)))
+        for d in range(-dmax, dmax + 1):
+            i2, j2 = ii + d, jj + g
+            fine = ((j2 < h.shape[1]) & (i2 >= 0) & (i2 < h.shape[0])
+                    & (abs(d) * dtheta * r_mid <= g * step + 1e-9))
+            other = np.full(len(ii), -1)
+            other[fine] = index[i2[fine], j2[fine]]
+            hit = other >= 0
+            pairs.append(np.stack([np.flatnonzero(hit), other[hit]], 1))
+    lab = _components(ii, np.concatenate(pairs))
+    hm, h0, hp = h[ii - 1, jj], h[ii, jj], h[ii + 1, jj]
+    curv = hm - 2.0 * h0 + hp
+    frac = np.where(curv > 0, 0.5 * (hm - hp) / np.where(curv > 0, curv, 1.0), 0.0)
+    sub = theta[ii] + dtheta * np.clip(frac, -0.5, 0.5)
+    smooth = int(round(1.0 / step))
+    for label in np.unique(lab):
+        sel = lab == label
+        ci, cj, cs = ii[sel], jj[sel], sub[sel]
+        cols = np.unique(cj)
+        ang = np.array([cs[cj == c].mean() for c in cols])
+        dep = -h[ci, cj]
+        deepest = np.array([ci[cj == c][np.argmax(dep[cj == c])] for c in cols])
+        depth = -h[deepest, cols]
+        yy = y[deepest, cols]
+        length, seg = _polar_stretch(cols, ang, yy, radius, depth, depth_mm, gap, smooth, cx, cz, outward)
+        if len(seg) == 0:
+            out["furrows"].append((None, 0.0, float(depth.max()), None, None))
+            continue
+        px = cx + outward * radius[cols[seg]] * np.cos(ang[seg])
+        pz = cz + radius[cols[seg]] * np.sin(ang[seg])
+        out["furrows"].append((_direction(px, pz, cx, cz, outward), length, float(depth.max()),
+                               float(radius[cols[seg[0]]]), float(radius[cols[seg[-1]]])))
+    feet = [f for f in out["furrows"] if f[1] >= count_mm]
+    out["count"] = len(feet)
+    if feet:
+        dirs = [f[0] for f in feet]
+        out["fan_deg"] = float(max(dirs) - min(dirs))
+        out["depth"] = float(max(f[2] for f in feet))
+        out["lengths"] = [f[1] for f in feet]
+    return out
+
+
+def _polar_stretch(cols, ang, yy, radius, depth, depth_mm, gap_cols, smooth, cx, cz, outward):
+    """(3D length, indices into ``cols``) of a polar ridge-line's longest stretch at least
+    ``depth_mm`` deep (gaps up to ``gap_cols`` bridged), its angle and depth y smoothed."""
+    idx = np.flatnonzero(depth >= depth_mm)
+    if len(idx) == 0:
+        return 0.0, idx
+    best, best_seg = -1.0, idx[:0]
+    for seg in np.split(idx, np.flatnonzero(np.diff(cols[idx]) > gap_cols) + 1):
+        a, r = _smooth(ang[seg], smooth), radius[cols[seg]]
+        pts = np.stack([cx + outward * r * np.cos(a), cz + r * np.sin(a), _smooth(yy[seg], smooth)], 1)
+        length = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1))) if len(seg) > 1 else 0.0
+        if length > best:
+            best, best_seg = length, seg
+    return best, best_seg
+
+
+def _direction(px, pz, cx, cz, outward):
+    """The angle (deg) from the outward horizontal of the principal axis of the points
+    (px, pz); one point: its polar angle about (cx, cz)."""
+    if len(px) < 2:
+        return float(np.degrees(np.arctan2(pz[0] - cz, outward * (px[0] - cx))))
+    d = np.stack([outward * (px - px.mean()), pz - pz.mean()], 1)
+    _w, v = np.linalg.eigh(d.T @ d)
+    vx, vz = v[:, -1]
+    if vx < 0:
+        vx, vz = -vx, -vz
+    return float(np.degrees(np.arctan2(vz, vx)))
+
+
+def crows_feet(sides):
+    """The squint measures from the per-side results of :func:`crows_feet_side`:
+    ``crows_feet_per_side``, ``crows_feet_fan_deg``, ``crows_feet_length_mm``,
+    ``crows_feet_depth_mm`` (see the module doc)."""
+    fans = [s["fan_deg"] for s in sides if s["fan_deg"] is not None]
+    lengths = [v for s in sides for v in s["lengths"]]
+    return {"crows_feet_per_side": int(min(s["count"] for s in sides)),
+            "crows_feet_fan_deg": float(max(fans)) if fans else None,
+            "crows_feet_length_mm": float(min(lengths)) if lengths else None,
+            "crows_feet_depth_mm": float(min(s["depth"] for s in sides))}
+
+
+# --------------------------------------------------------------------------- knots
+def blur(h, sigma_mm, step):
+    """``h`` smoothed with a Gaussian of ``sigma_mm`` (separable, over the valid cells
+    only); invalid cells stay NaN."""
+    h = np.asarray(h, float)
+    valid = np.isfinite(h)
+    if sigma_mm <= 0 or not valid.any():
+        return h.copy()
+    sigma = sigma_mm / step
+    r = int(np.ceil(3.0 * sigma))
+    kernel = np.exp(-0.5 * (np.arange(-r, r + 1) / sigma) ** 2)
+    a, w = np.where(valid, h, 0.0), valid.astype(float)
+    for axis in (0, 1):
+        a2, w2 = np.zeros_like(a), np.zeros_like(w)
+        for off, k in zip(range(-r, r + 1), kernel):
+            a2 += k * np.nan_to_num(_shift(a, off, axis))
+            w2 += k * np.nan_to_num(_shift(w, off, axis))
+        a, w = a2, w2
+    return np.where(valid, a / np.where(w > 0, w, 1.0), np.nan)
+
+
+def curvatures(h, step):
+    """The eigenvalues (k1 <= k2) of the Hessian of ``h`` (central differences), each
+    like ``h``; NaN where a difference meets an invalid cell (or the grid is too small)."""
+    if min(h.shape) < 3:
+        nan = np.full(h.shape, np.nan)
+        return nan, nan.copy()
+    hz, hx = np.gradient(h, step)
+    hzz, hzx = np.gradient(hz, step)
+    hxz, hxx = np.gradient(hx, step)
+    b = 0.5 * (hzx + hxz)
+    mean = 0.5 * (hxx + hzz)
+    disc = np.sqrt(np.maximum(0.25 * (hxx - hzz) ** 2 + b * b, 0.0))
+    return mean - disc, mean + disc
+
+
+def _strict_minima(h, window, detect):
+    """Cells that are :func:`minima` along x or along z and lower than both cells
+    ``window`` away in that direction (so a furrow's flank, level along it, is not one)."""
+    out = np.zeros(h.shape, bool)
+    with np.errstate(invalid="ignore"):
+        for axis in (0, 1):
+            out |= (minima(h, axis, window, detect) & (h < _shift(h, window, axis))
+                    & (h < _shift(h, -window, axis)))
+    return out
+
+
+def knots(grid, slit_factor=2.0, nub_factor=2.0, slit_mm=0.3, nub_mm=0.2, kappa=0.2, near_mm=2.5,
+          sigma_mm=0.5, detect_mm=0.1, window_mm=1.0):
+    """The smile's knots on ``grid`` (see the module doc): a dict with ``knots`` and
+    ``where``, per knot (x, z, height) of its highest nub cell and the distance to its
+    nearest slit cell, and ``furrow_depth`` (D) and ``bulge`` (B), the region's typical."""
+    h, step = grid.h, grid.step
+    out = {"knots": 0, "where": [], "furrow_depth": 0.0, "bulge": 0.0}
+    if h.size == 0 or not grid.valid.any():
+        return out
+    w = max(1, int(round(window_mm / step)))
+    furrow = _strict_minima(h, w, detect_mm)
+    crest = _strict_minima(-h, w, 0.5 * detect_mm)
+    d = float(np.median(-h[furrow])) if furrow.any() else 0.0
+    b = float(np.median(h[crest])) if crest.any() else 0.0
+    out["furrow_depth"], out["bulge"] = d, b
+    k1, k2 = curvatures(blur(h, sigma_mm, step), step)
+    with np.errstate(invalid="ignore"):
+        slit = grid.valid & (-h >= max(slit_factor * d, slit_mm)) & (k2 >= kappa)
+        nub = grid.valid & (h >= max(nub_factor * b, nub_mm)) & (k1 <= -kappa)
+    if not slit.any() or not nub.any():
+        return out
+    kk, ii = np.nonzero(nub)
+    index = np.full(h.shape, -1, np.int64)
+    index[kk, ii] = np.arange(len(kk))
+    pairs = []
+    for dk, di in ((0, 1), (1, -1), (1, 0), (1, 1)):
+        k2_, i2 = kk + dk, ii + di
+        fine = (k2_ < h.shape[0]) & (i2 >= 0) & (i2 < h.shape[1])
+        other = np.full(len(kk), -1)
+        other[fine] = index[k2_[fine], i2[fine]]
+        hit = other >= 0
+        pairs.append(np.stack([np.flatnonzero(hit), other[hit]], 1))
+    lab = _components(kk, np.concatenate(pairs))
+    sk, si = np.nonzero(slit)
+    sx, sz = grid.xs[si], grid.zs[sk]
+    for label in np.unique(lab):
+        sel = np.flatnonzero(lab == label)
+        nx_, nz_ = grid.xs[ii[sel]], grid.zs[kk[sel]]
+        dist = np.hypot(nx_[:, None] - sx[None], nz_[:, None] - sz[None]).min()
+        if dist <= near_mm + 1e-9:
+            top = sel[np.argmax(h[kk[sel], ii[sel]])]
+            out["where"].append((float(grid.xs[ii[top]]), float(grid.zs[kk[top]]), float(h[kk[top], ii[top]]),
+                                 float(dist)))
+    out["knots"] = len(out["where"])
+    return out
 
 
 # --------------------------------------------------------------------------- nasolabial

@@ -15,7 +15,7 @@ def activate(ob):
 
 
 def wrinkle_face(face, landmarks, wrinkles_only=False, refine=True):
-    """Enable wrinkles, add Zhang's ten mirrored muscles from the landmarks, refine."""
+    """Enable wrinkles, add the facial muscle set from the landmarks, refine."""
     activate(face)
     bpy.ops.wrinkle.enable()
     # imported here, after the add-on is enabled, so Blender does not reload it

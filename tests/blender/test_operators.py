@@ -52,9 +52,14 @@ def test_muscle_set_and_expressions():
     bpy.context.view_layer.objects.active = face
     bpy.ops.wrinkle.add_muscle_set()
     muscles = muscle_objects.live_muscles(face)
-    assert len(muscles) == 20
+    expect = {(r, s) for r, _n, _k in presets.MUSCLES for s in ("C" if r in presets.MIDLINE else "LR")}
+    # Zhang's ten pairs, the Orbicularis Oculi pair and two on the midline
+    assert len(muscles) == len(expect) == 24
     roles = {(m.ewrinkles_muscle.role, m.ewrinkles_muscle.side) for m in muscles}
-    assert roles == {(r, s) for r, _n, _k in presets.MUSCLES for s in "LR"}
+    assert roles == expect
+    kinds = {m.ewrinkles_muscle.role: m.ewrinkles_muscle.kind for m in muscles}
+    assert kinds["ORBICULARIS_OCULI"] == kinds["ORBICULARIS_ORIS"] == "SPHINCTER"
+    assert all(muscle_objects.to_core(m, face).problem() is None for m in muscles)
     with pytest.raises(RuntimeError, match="already has"):
         bpy.ops.wrinkle.add_muscle_set()
     scene = bpy.context.scene
@@ -72,7 +77,12 @@ def test_mirrored_pairs_are_symmetric():
     lm = presets.estimate_landmarks((-0.08, -0.1, 0.0), (0.08, 0.1, 0.25))
     layout = presets.layout(lm)
     by_key = {(role, side): pts for role, side, _k, pts in layout}
+    for role in presets.MIDLINE:  # one muscle, symmetric about the midline
+        pts = by_key[(role, "C")]
+        assert pts[0, 0] == pytest.approx(0.0, abs=1e-12)
     for role, _n, _k in presets.MUSCLES:
+        if role in presets.MIDLINE:
+            continue
         left, right = by_key[(role, "L")], by_key[(role, "R")]
         np.testing.assert_allclose(np.sort(left[:, 0]), np.sort(-right[:, 0]), atol=1e-12)
         assert left[:, 0].mean() > 0  # the left muscle lies on the +X side (sheets may cross the midline)
@@ -90,6 +100,33 @@ def test_add_muscle_at_cursor_gets_visible_defaults():
     bpy.context.scene.frame_set(2)
     off = scenes.offsets(face)
     assert np.abs(off).max() > 1e-3  # the first try gives a visible result
+
+
+def test_add_sphincter_at_cursor_pulls_and_wrinkles():
+    face = scenes.make_face()
+    bpy.ops.wrinkle.enable()
+    bpy.context.scene.cursor.location = (0.0, 0.0, 0.06)
+    assert bpy.ops.wrinkle.add_muscle(kind="SPHINCTER") == {"FINISHED"}
+    muscle = bpy.context.view_layer.objects.active
+    s = muscle.ewrinkles_muscle
+    assert s.kind == "SPHINCTER" and muscle.parent == face
+    assert len(muscle.data.vertices) == 3 + muscle_objects.RING and s.k0 > 0 and s.reach >= 1.0
+    core = muscle_objects.to_core(muscle, face)
+    assert core.problem() is None
+    s.contraction = 1.0
+    bpy.context.scene.frame_set(2)
+    off = scenes.offsets(face)
+    assert np.abs(off).max() > 1e-3  # drawn toward its centre: visible the first time
+    assert pipeline.status_of(face) == ""
+
+
+def test_a_sphincter_on_one_line_is_refused():
+    scenes.make_face()
+    bpy.ops.wrinkle.enable()
+    pts = [0.0, 0.0, 0.06, 0.02, 0.0, 0.06, 0.04, 0.0, 0.06] + [0.0] * 3
+    with pytest.raises(RuntimeError, match="must not lie on one line"):
+        bpy.ops.wrinkle.add_muscle(kind="SPHINCTER", use_points=True, points=pts)
+    assert not any(ob.ewrinkles_muscle.is_muscle for ob in bpy.data.objects)
 
 
 class _Event:

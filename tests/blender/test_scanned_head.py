@@ -80,3 +80,39 @@ def test_brow_down_wrinkles_between_the_brows(ict_face):
     between = ((np.abs(rest[:, 2] - g[2]) < 0.01) & (np.abs(rest[:, 0] - g[0]) < 0.02)
                & (rest[:, 1] < g[1] + 0.01))
     assert np.abs(h[between]).max() > 2e-4
+
+
+def test_a_squint_raises_crows_feet_from_the_rig_alone(ict_face):
+    """eyeSquint + cheekSquint, no contraction keyed: the Orbicularis Oculi's furrows fan out
+    from each outer eye corner, across the fibres that run round the eye; the lids stay smooth."""
+    from wrinkle_addon.core import zones
+
+    face, lm = ict_face
+    keys = face.data.shape_keys.key_blocks
+    for name in ("eyeSquint_L", "eyeSquint_R", "cheekSquint_L", "cheekSquint_R"):
+        keys[name].value = 1.0
+    bpy.context.scene.frame_set(4)
+    me = face.data
+    rest = np.empty((len(me.vertices), 3), np.float32)
+    me.attributes["position"].data.foreach_get("vector", rest.ravel())
+    off = scenes.offsets(face)
+    h = np.linalg.norm(off, axis=1)  # wrinkles only: every offset is a height along the normal
+    lids = zones.face_zones(rest, lm).eyelid
+    assert h[lids].max() == 0.0
+    g = lm["glabella"]
+    e = 2.0 * abs(lm["eye_L"][0] - g[0])
+    for s in (1.0, -1.0):
+        eye = np.array([g[0] + s * (lm["eye_L"][0] - g[0]), lm["eye_L"][2]])
+        dx, dz = s * (rest[:, 0] - eye[0]), rest[:, 2] - eye[1]
+        rho = np.hypot(dx / (0.4 * e), dz / (0.33 * e))
+        theta = np.degrees(np.arctan2(dz / (0.33 * e), dx / (0.4 * e)))
+        front = rest[:, 1] < g[1] + 0.05
+        corner = front & (rho > 0.75) & (rho < 1.4) & (np.abs(theta) < 45)
+        assert h[corner].max() > 2e-4  # deeper than 0.2 mm
+        # round the eye the height rises and falls: several furrows across the angle
+        ring = corner & (np.abs(rho - 1.0) < 0.05)
+        outward = rest[ring] - rest.mean(axis=0)  # the head's inside lies behind the skin
+        signed = np.sign(np.einsum("ij,ij->i", off[ring], outward)) * h[ring]
+        profile = signed[np.argsort(theta[ring])]
+        strong = profile[np.abs(profile) > 0.2 * np.abs(profile).max()]
+        assert np.sum(np.sign(strong[1:]) != np.sign(strong[:-1])) >= 4, s

@@ -9,8 +9,11 @@ References:
   by inspecting the scan in front and side views (a rendered check, once): the nose tip,
   the left mouth corner, the two corners of the left eye (the eye is their midpoint), and
   the frontal vertices at the glabella, the front of the chin, the middle of the hairline
-  (where the forehead turns into the crown), the outer end of the left brow ridge and the
-  most prominent point of the left cheekbone.
+  (where the forehead turns into the crown) and the most prominent point of the left
+  cheekbone; the brow's outer end is ICT-FaceKit's own (iBUG point 26 of
+  ict_head_landmarks.json: the vertex first picked here, 2737, was 12 mm short of it, on
+  the brow ridge above the eye's outer corner).  tests/core/test_landmark_reference.py
+  compares every landmark with a counterpart among ICT's 68 landmarks.
 """
 
 from pathlib import Path
@@ -26,7 +29,7 @@ ICT = Path(__file__).resolve().parents[3] / "shared" / "data" / "ict_head.npz"
 ICT_REFERENCE = {  # name -> ICT vertex indices (mean of them)
     "hairline_center": [8254],
     "glabella": [1398],
-    "brow_outer_L": [2737],
+    "brow_outer_L": [2509],  # iBUG 26 of ICT's own landmarks (test_landmark_reference.py)
     "eye_L": [6548, 6588],
     "nose_tip": [4841],
     "mouth_corner_L": [6684],

@@ -27,3 +27,19 @@ def test_linear_outline_reaches_radius_and_degenerate_muscles_draw_nothing():
     assert np.isclose(d.max(), m.length)
     bad = linear(insertion=m.attachment.copy())
     assert all(len(v) == 0 for v in muscle_outline(bad).values())
+
+
+def test_sphincter_outline_draws_its_reach_and_its_sector():
+    from tests.core.test_sphincter import CENTRE, plane, polar, ring
+
+    m = ring()
+    out = muscle_outline(m)
+    rho, theta = polar(out["aoi"])
+    np.testing.assert_allclose(rho, m.length, atol=1e-9)  # the outer ellipse at the outer reach
+    rho, theta = polar(out["region"])
+    assert np.isclose(rho.min(), m.lambda_w * m.length)
+    assert np.isclose(rho.max(), m.length) and np.isclose(np.abs(theta).max(), m.spread)
+    rest, *_ = plane(61)
+    region = polar(rest[muscle_field(rest, m).region])
+    assert region[0].min() >= rho.min() - 1e-9 and np.abs(region[1]).max() <= m.spread + 1e-9
+    assert np.allclose(out["region"][:, 1], CENTRE[1])

@@ -38,6 +38,9 @@ def test_parallel_furrows_counted_continuous_level_even():
     assert got["spacing_cv"] == pytest.approx(0.0, abs=0.02)
     # the cusp is 0.6 deep, the bulge 0.3 high (plus the cusps' tails)
     assert got["furrow_bulge_ratio"] == pytest.approx(2.0, rel=0.1)
+    # even depth all along; every furrow runs out of the field at both ends: no end to judge
+    assert got["depth_cv_along"] == pytest.approx(0.0, abs=1e-6)
+    assert got["taper_mm"] is None
 
 
 @pytest.mark.parametrize("tilt", [6.0, 12.0, -20.0])
@@ -100,7 +103,7 @@ def test_fewer_than_three_furrows_have_no_spacing_cv():
 def test_zero_field_has_no_furrows():
     got = rm.forehead(rm.Grid.of(np.zeros((120, 200))))
     assert got == {"furrows": 0, "continuity": 0.0, "angle_deg": None, "spacing_cv": None,
-                   "furrow_bulge_ratio": None}
+                   "furrow_bulge_ratio": None, "depth_cv_along": None, "taper_mm": None}
 
 
 def test_short_dimples_are_not_furrows():
@@ -143,7 +146,7 @@ def test_glabella_counts_the_weaker_side():
 
 
 @pytest.mark.parametrize("groove, why", [
-    ((7, 0.0, -3, 3, 0.5), "too short"),
+    ((7, 0.0, -1, 1, 0.5), "too short: a dimple"),
     ((7, 0.0, -8, 8, 0.2), "too shallow"),
     ((7, 45.0, -8, 8, 0.5), "too far from vertical"),
 ])
@@ -215,3 +218,231 @@ def test_front_grid_interpolates_linearly_and_keeps_the_nearest_surface():
 def test_max_abs():
     assert rm.max_abs([0.1, -0.7, 0.3], [True, True, False]) == pytest.approx(0.7)
     assert rm.max_abs([0.1, -0.7], [False, False]) == 0.0
+
+
+# --------------------------------------------------------------------------- brow raise: depth and taper
+@pytest.mark.parametrize("a", [0.2, 0.4])
+def test_depth_varying_along_gives_its_coefficient_of_variation(a):
+    # depth 0.6 (1 + a sin(2 pi x / 20)) over five whole periods: CV = a / sqrt(2)
+    got = rm.forehead(furrow_field([10, 22, 34], present=lambda x: 1.0 + a * np.sin(2 * np.pi * x / 20.0)))
+    assert got["furrows"] == 3
+    assert got["depth_cv_along"] == pytest.approx(a / np.sqrt(2.0), rel=0.05)
+
+
+def test_slanting_even_furrow_has_even_depth():
+    # the parabola's vertex follows the cusp between grid lines: no false variation
+    got = rm.forehead(furrow_field([20, 32, 44], height=100.0, tilt_deg=8.0).crop((-30, 30), (0, 100)))
+    assert got["furrows"] == 3
+    assert got["depth_cv_along"] < 0.1
+
+
+def ramp(x, x0, x1, length):
+    """1 between x0 + length and x1 - length, falling linearly to 0 at x0 and x1."""
+    return np.clip((x - x0) / length, 0.0, 1.0) * np.clip((x1 - x) / length, 0.0, 1.0)
+
+
+@pytest.mark.parametrize("length", [4.0, 10.0, 15.0])
+def test_linear_taper_gives_its_length(length):
+    # from 0.1 mm (the detection threshold) to the plateau's 0.6: length (1 - 0.1 / 0.6)
+    got = rm.forehead(furrow_field([10, 22, 34], present=lambda x: ramp(x, -42.0, 42.0, length)))
+    assert got["furrows"] == 3
+    assert got["taper_mm"] == pytest.approx(length * (1.0 - 0.1 / 0.6), abs=0.6)
+
+
+def test_furrow_running_out_of_the_region_has_no_end_there():
+    # fades over 12 mm on the left, runs on past the field's right edge: only the left end counts
+    got = rm.forehead(furrow_field([10, 22, 34], present=lambda x: np.clip((x + 42.0) / 12.0, 0.0, 1.0)))
+    assert got["taper_mm"] == pytest.approx(12.0 * (1.0 - 0.1 / 0.6), abs=0.6)
+    # ... also when it runs into cells no triangle covers (NaN) inside the field
+    g = furrow_field([10, 22, 34], present=lambda x: np.clip((x + 42.0) / 12.0, 0.0, 1.0))
+    g.h[:, g.xs > 40.0] = np.nan
+    assert rm.forehead(g)["taper_mm"] == pytest.approx(12.0 * (1.0 - 0.1 / 0.6), abs=0.6)
+
+
+def test_abrupt_furrow_end_has_a_short_taper():
+    got = rm.forehead(furrow_field([10, 22, 34], present=lambda x: (np.abs(x) < 40.0).astype(float)))
+    assert got["furrows"] == 3
+    assert got["taper_mm"] < 1.0
+
+
+def test_faint_furrow_has_no_taper_to_judge():
+    # 0.15 mm deep, cut short at both ends: barely above the 0.1 mm threshold, all fade
+    got = rm.forehead(furrow_field([10, 22, 34], depth=0.15, bulge=0.05,
+                                   present=lambda x: (np.abs(x) < 40.0).astype(float)))
+    assert got["furrows"] == 3
+    assert got["taper_mm"] is None
+
+
+# --------------------------------------------------------------------------- brow down
+def test_glabella_counts_deep_lines_of_any_useful_length():
+    # 6 mm long and 0.5 mm deep: a frown line now (the length is glabella_length_mm's business)
+    got = rm.glabella(glabella_field([(-7, 0.0, -8, 8, 0.5), (7, 0.0, -3, 3, 0.5)]), 0.0)
+    assert got["glabella_furrows_per_side"] == 1
+    assert got["glabella_length_mm"] == pytest.approx(6.0, abs=0.6)
+    assert got["glabella_separation_mm"] is None  # no side has two
+
+
+@pytest.mark.parametrize("d", [3.0, 4.5, 7.0])
+def test_glabella_separation_of_two_lines_on_a_side(d):
+    grooves = [(-5, 0.0, -8, 8, 0.6), (-5 - d, 0.0, -8, 8, 0.6), (6, 0.0, -8, 8, 0.6)]
+    got = rm.glabella(glabella_field(grooves), 0.0)
+    assert got["glabella_furrows_per_side"] == 1
+    assert got["glabella_separation_mm"] == pytest.approx(d, abs=0.1)
+    both = rm.glabella(glabella_field(grooves + [(6 + d + 1, 0.0, -8, 8, 0.6)]), 0.0)
+    assert both["glabella_furrows_per_side"] == 2
+    assert both["glabella_separation_mm"] == pytest.approx(d, abs=0.1)  # the smaller side's pair
+
+
+def test_glabella_separation_of_lines_one_above_the_other():
+    # two lines on the same x, one above the other: their nearest points are 4 mm apart
+    grooves = [(-6, 0.0, -10, -2, 0.6), (-6, 0.0, 2, 10, 0.6), (6, 0.0, -8, 8, 0.6)]
+    got = rm.glabella(glabella_field(grooves), 0.0)
+    assert got["glabella_separation_mm"] == pytest.approx(4.0, abs=0.6)
+
+
+# --------------------------------------------------------------------------- anger: procerus line
+def nose_root_field(angle_deg, x_half, depth, z0=8.0, width=32.0, height=22.0, step=STEP):
+    """A groove at height z0 through x = 0, ``angle_deg`` from horizontal, from -x_half to
+    x_half (mm along x), with a cusp profile of ``depth``."""
+    xs = -0.5 * width + step * np.arange(int(width / step) + 1)
+    zs = step * np.arange(int(height / step) + 1)
+    X, Z = np.meshgrid(xs, zs)
+    s = Z - z0 - np.tan(np.radians(angle_deg)) * X
+    h = -depth * np.exp(-np.abs(s) / 0.6) * (np.abs(X) <= x_half)
+    return rm.Grid.of(h, step, x0=xs[0], z0=0.0)
+
+
+def test_horizontal_line_at_the_nose_root():
+    got = rm.procerus(nose_root_field(0.0, 5.0, 0.4))
+    assert got["procerus_line"] is True
+    assert rm.procerus(nose_root_field(20.0, 5.0, 0.4))["procerus_line"] is True
+
+
+@pytest.mark.parametrize("field, why", [
+    (lambda: nose_root_field(0.0, 1.5, 0.4), "3 mm: too short"),
+    (lambda: nose_root_field(0.0, 5.0, 0.15), "too shallow"),
+    (lambda: nose_root_field(50.0, 8.0, 0.4), "too steep"),
+    (lambda: rm.Grid.of(np.zeros((45, 65))), "no furrow"),
+])
+def test_no_procerus_line(field, why):
+    assert rm.procerus(field())["procerus_line"] is False, why
+
+
+def test_vertical_frown_lines_are_no_procerus_line():
+    g = glabella_field([(-4, 0.0, -10, 10, 0.8), (4, 0.0, -10, 10, 0.8)], width=32.0, height=22.0)
+    assert rm.procerus(g)["procerus_line"] is False
+
+
+# --------------------------------------------------------------------------- squint: crow's feet
+E = 60.0  # interocular distance of the synthetic faces (mm)
+
+
+def fan_field(rays, outward=1.0, width=50.0, height=60.0, step=STEP, corner=(0.0, 0.0)):
+    """Radial grooves from ``corner``: each (direction deg from the outward horizontal, inner
+    radius, outer radius, depth), a Gaussian profile across of half-width 0.8 mm."""
+    x0 = corner[0] - (width if outward < 0 else 0.0)
+    xs = x0 + step * np.arange(int(width / step) + 1)
+    zs = corner[1] - 0.5 * height + step * np.arange(int(height / step) + 1)
+    X, Z = np.meshgrid(xs, zs)
+    u, v = outward * (X - corner[0]), Z - corner[1]
+    h = np.zeros_like(X)
+    for angle, r0, r1, depth in rays:
+        c, s = np.cos(np.radians(angle)), np.sin(np.radians(angle))
+        along, across = u * c + v * s, -u * s + v * c
+        h += -depth * np.exp(-((across / 0.8) ** 2)) * ((along >= r0) & (along <= r1))
+    return rm.Grid.of(h, step, x0=xs[0], z0=zs[0])
+
+
+RAYS = [(-40.0, 8.0, 28.0, 0.5), (-15.0, 8.0, 28.0, 0.5), (10.0, 8.0, 28.0, 0.5), (35.0, 8.0, 24.0, 0.4)]
+
+
+@pytest.mark.parametrize("outward", [1.0, -1.0])
+def test_fan_of_radial_grooves(outward):
+    got = rm.crows_feet_side(fan_field(RAYS, outward), (0.0, 0.0), outward, E)
+    assert got["count"] == 4
+    assert got["fan_deg"] == pytest.approx(75.0, abs=2.0)
+    assert sorted(got["lengths"]) == pytest.approx([16.0, 20.0, 20.0, 20.0], abs=1.0)
+    assert got["depth"] == pytest.approx(0.5, abs=0.03)
+    both = rm.crows_feet([got, rm.crows_feet_side(fan_field(RAYS[:2], outward), (0.0, 0.0), outward, E)])
+    assert both["crows_feet_per_side"] == 2
+    assert both["crows_feet_fan_deg"] == pytest.approx(75.0, abs=2.0)
+    assert both["crows_feet_length_mm"] == pytest.approx(16.0, abs=1.0)
+    assert both["crows_feet_depth_mm"] == pytest.approx(0.5, abs=0.03)
+
+
+def test_crows_feet_corner_anywhere():
+    got = rm.crows_feet_side(fan_field(RAYS, 1.0, corner=(47.0, 35.0)), (47.0, 35.0), 1.0, E)
+    assert got["count"] == 4
+    assert got["fan_deg"] == pytest.approx(75.0, abs=2.0)
+
+
+def test_crows_feet_rejects_dimples_and_shallow_lines():
+    rays = [(0.0, 10.0, 12.5, 0.5), (30.0, 8.0, 28.0, 0.15), (-30.0, 8.0, 28.0, 0.5)]
+    got = rm.crows_feet_side(fan_field(rays), (0.0, 0.0), 1.0, E)
+    assert got["count"] == 1  # the 2.5 mm dimple and the 0.15 mm line are no crow's feet
+    assert got["fan_deg"] == 0.0
+    empty = rm.crows_feet([rm.crows_feet_side(fan_field([]), (0.0, 0.0), 1.0, E)] * 2)
+    assert empty == {"crows_feet_per_side": 0, "crows_feet_fan_deg": None, "crows_feet_length_mm": None,
+                     "crows_feet_depth_mm": 0.0}
+
+
+def test_crows_feet_are_measured_inside_the_region():
+    # a groove from 3 to 50 mm: only the part from 0.1 E (6 mm) to 0.6 E (36 mm) outward counts
+    got = rm.crows_feet_side(fan_field([(0.0, 3.0, 50.0, 0.5)], width=60.0), (0.0, 0.0), 1.0, E)
+    assert got["count"] == 1
+    assert got["lengths"][0] == pytest.approx(30.0, abs=1.0)
+
+
+def test_crows_feet_length_is_measured_in_3d():
+    g = fan_field([(0.0, 8.0, 28.0, 0.5)])
+    sloped = rm.Grid.of(g.h, g.step, x0=g.xs[0], z0=g.zs[0], y=np.broadcast_to(g.xs[None, :], g.h.shape))
+    got = rm.crows_feet_side(sloped, (0.0, 0.0), 1.0, E)  # the skin turns away at 45 degrees
+    assert got["lengths"][0] == pytest.approx(20.0 * np.sqrt(2.0), abs=1.0)
+
+
+# --------------------------------------------------------------------------- smile: knots
+def smile_field(nub=None, step=STEP):
+    """Below the eye, 60 x 50 mm: a clean nasolabial fold (cusp 0.8 mm deep, its round bulge
+    0.35 mm high 4 mm above it) slanting at -50 degrees, and four shallow creases (0.25 mm)
+    with their bulges.  ``nub``: (offset across the fold (mm, + above), height, half-width):
+    a narrow bump 6 mm long beside the fold's lower part."""
+    xs = step * np.arange(int(60 / step) + 1)
+    zs = step * np.arange(int(50 / step) + 1)
+    X, Z = np.meshgrid(xs, zs)
+    c, s = np.cos(np.radians(-50.0)), np.sin(np.radians(-50.0))
+    along, across = (X - 30.0) * c + (Z - 25.0) * s, -(X - 30.0) * s + (Z - 25.0) * c
+    inside = np.abs(along) <= 18.0
+    h = (-0.8 * np.exp(-np.abs(across) / 0.8) + 0.35 * np.exp(-(((across - 4.0) / 2.5) ** 2))) * inside
+    for z0 in (8.0, 16.0, 34.0, 42.0):  # the creases, level, away from the fold
+        cusp = -0.25 * np.exp(-np.abs(Z - z0) / 0.6) + 0.12 * np.exp(-(((Z - z0 - 3.0) / 1.5) ** 2))
+        h += cusp * (np.abs(X - (10.0 if z0 > 25 else 50.0)) <= 8.0)
+    if nub is not None:
+        offset, height, half = nub
+        h += height * np.exp(-(((across - offset) / half) ** 2)) * (np.abs(along - 8.0) <= 3.0)
+    return rm.Grid.of(h, step)
+
+
+def test_clean_fold_has_no_knot():
+    got = rm.knots(smile_field())
+    assert got["knots"] == 0
+    assert rm.knots(furrow_field([10, 22, 34, 46]))["knots"] == 0  # even furrows either
+    assert rm.knots(rm.Grid.of(np.zeros((40, 40))))["knots"] == 0
+
+
+def test_slit_beside_a_nub_is_a_knot():
+    got = rm.knots(smile_field(nub=(-1.8, 0.6, 0.7)))
+    assert got["knots"] == 1
+    x, z, height, dist = got["where"][0]
+    assert height == pytest.approx(0.6, abs=0.1) and dist <= 2.5
+    # the knot is where the nub is: 8 mm down the fold from its middle, 1.8 mm below it
+    c, s = np.cos(np.radians(-50.0)), np.sin(np.radians(-50.0))
+    assert (x, z) == pytest.approx((30.0 + 8.0 * c + 1.8 * s, 25.0 + 8.0 * s - 1.8 * c), abs=0.8)
+
+
+@pytest.mark.parametrize("nub, why", [
+    ((-7.0, 0.6, 0.7), "a sharp bump far from the fold"),
+    ((4.0, 0.25, 3.0), "the fold's bulge higher, but round"),
+    ((-1.8, 0.15, 0.7), "a low bump"),
+])
+def test_no_knot(nub, why):
+    assert rm.knots(smile_field(nub=nub))["knots"] == 0, why

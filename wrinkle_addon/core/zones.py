@@ -12,12 +12,12 @@ they fit any head (landmark names as ``core.muscles.presets.LANDMARKS``; face-lo
 coordinates, the face looking toward -Y, Z up, the character's left +X; the right side is
 the left mirrored about the glabella's x):
 
-* **eyelid**: centred on the eye; half-width 0.32 of the half brow width (glabella to outer
-  brow, about 50 mm on an adult, so 16 mm: the palpebral fissure's half width, 14-15 mm,
-  to the eye's corners, so that crow's feet, which start at the outer corner, stay free;
-  the margin ramp then reaches 22 mm); upwards the whole eye-to-glabella height (the upper
-  lid, its fold and the skin up to the brow, which does not fold when the brows move),
-  downwards 0.6 of it (the lower lid);
+* **eyelid**: centred on the eye; half-width 0.235 of the distance E between the eyes (about
+  63 mm on an adult, so 15 mm: the palpebral fissure's half width, 14-15 mm, to the eye's
+  corners, so that crow's feet, which start at the outer corner, stay free; the margin ramp
+  then reaches 20 mm; E, not the brow, whose outer end lies a varying way beyond the eye);
+  upwards the whole eye-to-glabella height (the upper lid, its fold and the skin up to the
+  brow, which does not fold when the brows move), downwards 0.6 of it (the lower lid);
 * **lip**: centred on the mouth line between the corners; half-width the
   corner-to-midline distance; upwards 0.4 of the mouth-to-nose-tip height (the upper
   vermilion, not the philtrum above it), downwards 0.3 of the mouth-to-chin height.
@@ -35,7 +35,7 @@ from .mesh import smoothstep
 
 # each zone's ``margin``: its keep-out ramp, in units of the ellipse's own radius; the lips'
 # is short, so the nasolabial fold beside the mouth corner keeps its depth
-EYELID = {"half_width": 0.32, "up": 1.0, "down": 0.6, "margin": 0.35}
+EYELID = {"half_width": 0.235, "up": 1.0, "down": 0.6, "margin": 0.35}  # half-width in E
 LIP = {"half_width": 1.0, "up": 0.4, "down": 0.3, "margin": 0.15}
 
 
@@ -73,7 +73,8 @@ def face_zones(rest, landmarks):
     for sx in (1.0, -1.0):
         c = eye.copy()
         c[0] = g[0] + sx * (eye[0] - g[0])
-        lids.append(_radius(p, c, EYELID["half_width"] * bw, EYELID["up"] * lid_h,
+        e = 2.0 * abs(eye[0] - g[0])  # the distance between the eyes
+        lids.append(_radius(p, c, EYELID["half_width"] * e, EYELID["up"] * lid_h,
                             EYELID["down"] * lid_h, bw))
     eyelid_r = np.minimum(*lids)
     c = mouth.copy()

@@ -7,6 +7,7 @@ from bpy.props import BoolProperty, IntProperty, StringProperty
 from ..glue import bake, faces, registry
 from ..glue import frame as pipeline
 from ..glue.errors import WrinkleError
+from ..glue.muscles import objects as muscle_objects
 from ..glue.progress import Progress
 from .common import face_poll, guarded
 
@@ -26,6 +27,7 @@ class WRINKLE_OT_enable(bpy.types.Operator):
     def execute(self, context):
         ob = _face(context)
         pipeline.enable(ob, context.scene)
+        muscle_objects.set_up_face(ob)  # its own seed for the irregular wrinkles
         ob.ewrinkles_face.enabled = True
         self.report({"INFO"}, "Wrinkles on. Render > Lock Interface was switched on so that "
                               "renders started from the interface show the right wrinkles")

@@ -35,13 +35,21 @@ from .common import face_poll, guarded, select_only
 MUSCLE_KINDS = [
     ("LINEAR", "Linear", "A linear muscle: attachment point and insertion point"),
     ("SHEET", "Sheet", "A sheet muscle: attachment line and insertion line"),
+    ("SPHINCTER", "Sphincter", "A sphincter muscle: an ellipse round an opening, from its centre "
+     "and the ends of its two axes (the first toward its wrinkles)"),
 ]
+NEEDED = {"LINEAR": 2, "SHEET": 4, "SPHINCTER": 3}  # end points of each kind
+POINT_NAMES = {"LINEAR": ["attachment", "insertion"],
+               "SHEET": ["attachment 1", "attachment 2", "insertion 2", "insertion 1"],
+               "SPHINCTER": ["centre", "end of the first axis (toward the wrinkles)",
+                             "end of the second axis"]}
 _face = faces.active
 
 
 class WRINKLE_OT_add_muscle(bpy.types.Operator):
     """Add a muscle to the active face at the 3D cursor, or between points you pick on the
-    surface (linear: attachment then insertion; sheet: two attachment then two insertion points)"""
+    surface (linear: attachment then insertion; sheet: two attachment then two insertion points;
+    sphincter: its centre, then the ends of its two axes)"""
 
     bl_idname = "wrinkle.add_muscle"
     bl_label = "Add Muscle"
@@ -60,8 +68,9 @@ class WRINKLE_OT_add_muscle(bpy.types.Operator):
     )
     points: FloatVectorProperty(
         name="Points",
-        description="World-space end points: attachment, insertion (linear) or attachment 1, "
-        "attachment 2, insertion 2, insertion 1 (sheet)",
+        description="World-space end points: attachment, insertion (linear); attachment 1, "
+        "attachment 2, insertion 2, insertion 1 (sheet); centre, end of the first axis, end of the "
+        "second axis (sphincter)",
         size=12, subtype="NONE", options={"SKIP_SAVE"},
     )
     name: StringProperty(name="Name", description="Name of the new muscle object", default="")
@@ -71,11 +80,14 @@ class WRINKLE_OT_add_muscle(bpy.types.Operator):
     def _points(self, context, face):
         if self.use_points:
             p = np.array(self.points, dtype=float).reshape(4, 3)
-            return [Vector(v) for v in (p[:2] if self.kind == "LINEAR" else p)]
+            return [Vector(v) for v in p[:NEEDED[self.kind]]]
         size = landmarks.surface_scale(face)
         cursor = context.scene.cursor.location
         if self.kind == "LINEAR":
             return muscle_objects.linear_points_at(cursor, (0, 0, -1), 0.25 * size)
+        if self.kind == "SPHINCTER":
+            return [Vector(cursor), Vector(cursor) + Vector((0.15 * size, 0, 0)),
+                    Vector(cursor) + Vector((0, 0, 0.12 * size))]
         return muscle_objects.sheet_points_at(cursor, (0, 0, 1), (1, 0, 0), 0.3 * size, 0.25 * size)
 
     @guarded
@@ -83,8 +95,15 @@ class WRINKLE_OT_add_muscle(bpy.types.Operator):
         face = _face(context)
         pts = self._points(context, face)
         if (pts[1] - pts[0]).length < 1e-9 or any(not math.isfinite(c) for p in pts for c in p):
-            self.report({"ERROR"}, "The attachment and insertion must be distinct, finite points")
+            self.report({"ERROR"}, "The attachment and insertion must be distinct, finite points"
+                        if self.kind != "SPHINCTER" else
+                        "The centre and the end of the first axis must be distinct, finite points")
             return {"CANCELLED"}
+        if self.kind == "SPHINCTER":
+            a, b = pts[1] - pts[0], pts[2] - pts[0]
+            if a.cross(b).length < 1e-9 * max(a.length * b.length, 1e-30) or b.length < 1e-9:
+                self.report({"ERROR"}, "The sphincter's two axes must not lie on one line")
+                return {"CANCELLED"}
         ob = muscle_objects.create(context, face, self.kind, pts, name=self.name or None)
         select_only(context, ob)
         pipeline.refresh_all(context)
@@ -98,14 +117,13 @@ class WRINKLE_OT_add_muscle(bpy.types.Operator):
             return {"CANCELLED"}
         self._face = _face(context).name
         self._picked = []
-        self._needed = 2 if self.kind == "LINEAR" else 4
+        self._needed = NEEDED[self.kind]
         context.window_manager.modal_handler_add(self)
         context.workspace.status_text_set(self._hint())
         return {"RUNNING_MODAL"}
 
     def _hint(self):
-        names = (["attachment", "insertion"] if self.kind == "LINEAR"
-                 else ["attachment 1", "attachment 2", "insertion 2", "insertion 1"])
+        names = POINT_NAMES[self.kind]
         return f"Click the {names[len(self._picked)]} on the face (Esc/right-click cancels)"
 
     def modal(self, context, event):
@@ -165,9 +183,10 @@ class WRINKLE_OT_add_landmarks(bpy.types.Operator):
 
 
 class WRINKLE_OT_add_muscle_set(bpy.types.Operator):
-    """Add Zhang's ten facial muscles as mirrored pairs (Frontalis inner, major and outer,
-    Corrugator, Nasalis, Zygomaticus minor and major, Risorius, Depressor anguli, Mentalis),
-    placed from the landmarks (Place Landmarks first, or they are guessed from the face's size)"""
+    """Add the facial muscle set: Zhang's ten muscles as mirrored pairs (Frontalis inner,
+    major and outer, Corrugator, Nasalis, Zygomaticus minor and major, Risorius, Depressor
+    anguli, Mentalis), the Orbicularis Oculi round each eye, the Orbicularis Oris and the
+    Procerus, placed from the landmarks (Place Landmarks first, or they are guessed from the face's size)"""
 
     bl_idname = "wrinkle.add_muscle_set"
     bl_label = "Add Facial Muscle Set"

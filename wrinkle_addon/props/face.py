@@ -14,6 +14,7 @@ from bpy.props import (
     PointerProperty,
 )
 
+from ..core.muscles import irregularity
 from .common import refresh
 from .maps import WrinkleMapSettings
 from .muscles import WrinkleMuscleRef
@@ -37,6 +38,23 @@ class WrinkleFaceSettings(bpy.types.PropertyGroup):
         name="Strength",
         description="Overall gain on the wrinkle heights of every muscle on this face",
         default=1.0, min=0.0, soft_max=3.0,
+        update=refresh,
+    )
+    irregularity: FloatProperty(
+        name="Irregularity",
+        description="How much the muscles' wrinkles vary, as real ones do: the spacing from furrow to "
+        "furrow, the depth along each furrow, a gentle wave in their course, furrows that fade out "
+        "partway. 0 gives Zhang's perfectly regular furrows; the furrows stay where they are as they "
+        "deepen. Each muscle scales it by its own Irregularity",
+        default=irregularity.DEFAULT, min=0.0, max=irregularity.MAX_AMOUNT, soft_max=2.0,
+        update=refresh,
+    )
+    seed: IntProperty(
+        name="Seed",
+        description="The pattern of the irregular wrinkles. Change it for another pattern; the same "
+        "seed gives the same wrinkles on every frame and every computer. A new face gets one of its "
+        "own, from its name",
+        default=0, min=0,
         update=refresh,
     )
     muscles: CollectionProperty(

@@ -17,6 +17,11 @@ when it reads the list.  On bpy 4.5 reading an item of a list whose stored value
 list of groups (``["a"]``, say) blocks forever inside Blender (measured: a deadlock in
 ``RNA_property_pointer_get``).  Such a value is removed, with a line on the console: it
 holds nothing the add-on could use.
+
+A face saved before the muscles' *Irregularity* existed keeps the regular wrinkles it was
+saved with (:func:`keep_regular`): its Irregularity, which the file does not hold, is set
+to 0 instead of the natural default a new face gets.  A new face stores its own when it is
+set up (``glue.muscles.objects.set_up_face``), so the two are told apart.
 """
 
 import bpy
@@ -174,10 +179,30 @@ def repair(data=None):
     return removed
 
 
+def keep_regular(data=None):
+    """Set the Irregularity of every face with muscles whose file does not hold one (saved
+    before the setting existed) to 0, so it keeps the regular wrinkles it was saved with.
+    Returns the names of the faces changed."""
+    data = data or bpy.data
+    changed = []
+    for ob in data.objects:
+        if ob.library is not None or getattr(ob, "override_library", None) is not None:
+            continue
+        s = ob.ewrinkles_face
+        if len(s.muscles) and not s.is_property_set("irregularity"):
+            s.irregularity = 0.0
+            changed.append(ob.name)
+    for name in changed:
+        print(f"Expression Wrinkles: {name}: saved before Irregularity existed, its wrinkles are kept "
+              "regular (Irregularity 0)")
+    return changed
+
+
 @persistent
 def on_load_post(*_args):
     repair()
     n = migrate()
+    keep_regular()
     if n:
         print(f"Expression Wrinkles: moved {n} settings and animation paths of version 0.2 to "
               "their new names")
@@ -188,6 +213,7 @@ def register():
     try:
         repair()
         migrate()
+        keep_regular()
     except AttributeError:  # bpy.data is restricted while Blender starts up
         pass
 

@@ -31,6 +31,9 @@ class WrinkleMuscleSettings(bpy.types.PropertyGroup):
              "point in the skin, pulling inside a cone (Waters 1987, Zhang 2005 §2.2)"),
             ("SHEET", "Sheet", "A sheet muscle: parallel fibres from an attachment line to an "
              "insertion line, like the Frontalis (Zhang 2005 §2.3)"),
+            ("SPHINCTER", "Sphincter", "A sphincter muscle: an ellipse of fibres round an opening "
+             "(the eye, the mouth) that draws the skin toward its centre; its wrinkles run across "
+             "the fibres, like crow's feet (Waters 1987)"),
         ],
         default="LINEAR",
         update=refresh,
@@ -39,7 +42,7 @@ class WrinkleMuscleSettings(bpy.types.PropertyGroup):
         name="Role",
         description="Which facial muscle this is; expression presets key muscles by role",
         items=[("CUSTOM", "Custom", "A muscle of your own")]
-        + [(r, n, f"{n} ({k.lower()} muscle, Zhang 2005 Fig. 1)") for r, n, k in MUSCLES],
+        + [(r, n, f"{n} ({k.lower()} muscle of the facial muscle set)") for r, n, k in MUSCLES],
         default="CUSTOM",
     )
     side: EnumProperty(
@@ -81,7 +84,8 @@ class WrinkleMuscleSettings(bpy.types.PropertyGroup):
     angle: FloatProperty(
         name="Angle",
         description="Linear muscle: maximal angle of influence around the central fibre (Zhang's "
-        "Phi, Waters' Omega)",
+        "Phi, Waters' Omega). Sphincter: half the angle of the wrinkling sector round its first "
+        "axis",
         default=math.radians(35.0), min=0.0, max=math.pi, soft_min=math.radians(5.0),
         soft_max=math.radians(80.0), subtype="ANGLE",
         update=refresh,
@@ -89,7 +93,8 @@ class WrinkleMuscleSettings(bpy.types.PropertyGroup):
     angle_c: FloatProperty(
         name="Attenuation Start",
         description="Linear muscle: angle from the central fibre where the wrinkle amplitude "
-        "starts to decrease (Zhang's phi_c, eq. 12)",
+        "starts to decrease (Zhang's phi_c, eq. 12). Sphincter: the same, from the middle of its "
+        "wrinkling sector",
         default=math.radians(15.0), min=0.0, max=math.pi, soft_max=math.radians(80.0),
         subtype="ANGLE",
         update=refresh,
@@ -116,8 +121,8 @@ class WrinkleMuscleSettings(bpy.types.PropertyGroup):
     )
     depth: FloatProperty(
         name="Depth",
-        description="Sheet muscle: only skin within this distance of the sheet's plane is "
-        "affected, so the sheet cannot reach through the head",
+        description="Sheet and sphincter muscle: only skin within this distance of the muscle's "
+        "plane is affected, so it cannot reach through the head",
         default=0.03, min=0.0, soft_max=0.2, subtype="DISTANCE", unit="LENGTH",
         update=refresh,
     )
@@ -129,10 +134,18 @@ class WrinkleMuscleSettings(bpy.types.PropertyGroup):
         default=0.0, min=0.0, max=2.0, subtype="FACTOR",
         update=refresh,
     )
+    reach: FloatProperty(
+        name="Outer Reach",
+        description="Sphincter muscle: how far its area of influence reaches beyond the centre, in "
+        "radii of its ring (the ellipse of its object). The pull fades from the ring to there",
+        default=1.3, min=1.0, max=5.0, soft_max=3.0,
+        update=refresh,
+    )
     lambda_w: FloatProperty(
         name="Wrinkling Region",
         description="Where the wrinkling region starts along the muscle, as a fraction of its "
-        "length (Zhang's lambda_w). Smaller values give a larger region",
+        "length (Zhang's lambda_w); for a sphincter, from its centre as a fraction of its outer "
+        "reach. Smaller values give a larger region",
         default=0.4, min=0.0, max=0.99, subtype="FACTOR",
         update=refresh,
     )
@@ -163,6 +176,14 @@ class WrinkleMuscleSettings(bpy.types.PropertyGroup):
         description="Fade the wrinkles over half a cycle at both ends of the wrinkling region, so "
         "the last furrow does not end in a step (not in the paper; off gives Zhang's exact model)",
         default=True,
+        update=refresh,
+    )
+    irregularity: FloatProperty(
+        name="Irregularity Factor",
+        description="This muscle's share of the face's Irregularity (its value times this): 0 gives "
+        "this muscle Zhang's regular furrows, above 1 it is more irregular than the face. Keep "
+        "neighbouring muscles whose furrows join at the same value, or the furrows step where they meet",
+        default=1.0, min=0.0, max=4.0, soft_max=2.0,
         update=refresh,
     )
     show_region: BoolProperty(

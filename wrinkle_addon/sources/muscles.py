@@ -11,14 +11,16 @@ from ..ui import muscles as muscles_ui
 
 
 class _Static:
-    __slots__ = ("plan", "footprint", "refs", "n_refs", "names", "uids", "params", "not_finite")
+    __slots__ = ("plan", "footprint", "refs", "n_refs", "names", "uids", "params", "not_finite",
+                 "face_params")
 
-    def __init__(self, plan, refs, n_refs, muscles, marks):
+    def __init__(self, plan, refs, n_refs, muscles, marks, face_params):
         self.plan, self.footprint, self.refs, self.n_refs = plan, plan.footprint, refs, n_refs
         self.names = [m.name for m in muscles]
         self.not_finite = [objects.not_finite(m) for m in muscles]
         self.uids = frozenset(m.session_uid for m in muscles + marks)
         self.params = {m.session_uid: objects.parameters(m) for m in muscles}
+        self.face_params = face_params  # the face's Irregularity and Seed
 
 
 class _Contraction:
@@ -54,7 +56,8 @@ class MuscleSource(WrinkleSource):
         muscles = objects.live_muscles(face, in_scene)
         marks = landmarks.landmark_positions(face)
         marks = None if marks is None else tuple(tuple(v) for v in marks.values())
-        return (objects.matrix_key(face), marks) + tuple(objects.signature(m) for m in muscles)
+        return ((objects.matrix_key(face), marks, objects.face_parameters(face))
+                + tuple(objects.signature(m) for m in muscles))
 
     def build(self, face, mesh, in_scene):
         refs = _live_refs(face, in_scene)
@@ -64,7 +67,8 @@ class MuscleSource(WrinkleSource):
         keep = landmarks.keep_out(face, mesh.rest)
         plan = system.build_plan(mesh.rest, mesh.edges, mesh.tris, core, keep_out=keep)
         marks = landmarks.landmark_objects(face)
-        return _Static(plan, refs, len(face.ewrinkles_face.muscles), muscles, marks)
+        return _Static(plan, refs, len(face.ewrinkles_face.muscles), muscles, marks,
+                       objects.face_parameters(face))
 
     def unchanged(self, face, static, changes, in_scene):
         # Muscles are placed in the face's space: a moved face, or a muscle or landmark
@@ -75,6 +79,8 @@ class MuscleSource(WrinkleSource):
         # parameters are compared, about 1 us each against 9 us for a whole signature.
         moved = changes.get(face.session_uid, (False, False))[0]
         if moved or not static.uids <= in_scene or len(face.ewrinkles_face.muscles) != static.n_refs:
+            return False
+        if objects.face_parameters(face) != static.face_params:  # Irregularity or Seed changed
             return False
         touched = static.uids & changes.keys()
         if not touched:

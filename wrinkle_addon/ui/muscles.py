@@ -18,7 +18,7 @@ class WRINKLE_UL_muscles(bpy.types.UIList):
         s = ob.ewrinkles_muscle
         row = layout.row(align=True)
         row.prop(ob, "name", text="", emboss=False,
-                 icon="MOD_LATTICE" if s.kind == "SHEET" else "FORCE_CURVE")
+                 icon={"SHEET": "MOD_LATTICE", "SPHINCTER": "MESH_CIRCLE"}.get(s.kind, "FORCE_CURVE"))
         row.prop(s, "contraction", text="")
         row.prop(s, "wrinkles_only", text="", icon="MOD_OCEAN")
 
@@ -37,6 +37,11 @@ def draw_face_muscles(layout, context, face):
     op.kind, op.pick = "LINEAR", True
     op = row.operator("wrinkle.add_muscle", text="Sheet", icon="MOD_LATTICE")
     op.kind, op.pick = "SHEET", True
+    op = row.operator("wrinkle.add_muscle", text="Sphincter", icon="MESH_CIRCLE")
+    op.kind, op.pick = "SPHINCTER", True
+    row = layout.row(align=True)  # the furrows' natural irregularity, for every muscle
+    row.prop(s, "irregularity")
+    row.prop(s, "seed")
     layout.label(text="Facial Muscle Set")
     row = layout.row(align=True)
     row.operator("wrinkle.add_landmarks", icon="EMPTY_AXIS")
@@ -77,6 +82,11 @@ class VIEW3D_PT_wrinkle_muscle(bpy.types.Panel):
             layout.prop(s, "radius")
             layout.prop(s, "angle")
             layout.prop(s, "angle_c")
+        elif s.kind == "SPHINCTER":
+            layout.prop(s, "reach")
+            layout.prop(s, "angle")
+            layout.prop(s, "angle_c")
+            layout.prop(s, "depth")
         else:
             layout.prop(s, "length")
             layout.prop(s, "width")
@@ -89,6 +99,7 @@ class VIEW3D_PT_wrinkle_muscle(bpy.types.Panel):
         layout.prop(s, "k0")
         layout.prop(s, "alpha")
         layout.prop(s, "fade_ends")
+        layout.prop(s, "irregularity")
         layout.prop(s, "show_region")
         layout.operator("wrinkle.drive_contraction", icon="DRIVER")
 

@@ -8,7 +8,8 @@ the *anchors*, the centres of both eyes and the two mouth corners:
 1. **openings**: the mesh's own eye and mouth holes.  The boundary loops (edges used by
    one face) are grouped into connected loops; a mirrored pair of small loops side by
    side are the eyes, a loop on their midline, one to two eye distances below them, the
-   mouth.  The eye is the centre of its loop, the mouth corners the loop's ends in X.
+   mouth.  The eye is the centre of its loop, the mouth corners the loop's ends in X,
+   brought forward to the pit where the lips meet in front of the rim.
 2. **rig**: ARKit-style shape keys.  ``eyeBlink`` moves the upper lids: the eye is the
    middle of the lid's travel at the vertices it moves most.  ``mouthSmile`` moves the
    mouth corners most, ``jawOpen`` the lower lip: the corner is the vertex the smile
@@ -32,16 +33,21 @@ The rest follows from the anchors on every rule, measured on the same depth imag
 ``E`` the distance between the eyes: the nose tip is the most forward point between the
 mouth and the eyes; on the midline profile the nasion is the deepest point at the eyes'
 height, the glabella the most forward point above it (up to the inner brows when the rig
-marks them) and the chin the most forward point below the lower lip.  The brow's outer end
-is on the brow ridge (the most convex point of the profile above the eye) ``0.26 E`` out
-from the eye; the hairline, which a bald mesh does not show, is ``0.9 E`` above the
-glabella; the cheekbone is ``0.3 E`` out from and ``0.31 E`` below the eye.  Every point
-but the eye is then put on the surface seen from the front.
+marks them) and the chin the middle of the chin's front below the lower lip.  The brow's
+outer end is ``0.25 E`` above the eye and as far out as the brow can reach: where the brow
+ridge ends (the convexity of the vertical profile at the ridge's crest, followed outward
+from the eye, falls to half its peak) or where the forehead turns into the temple (the knee
+of the horizontal profile at the brow's height, where it stops turning away from the
+front), whichever comes first; both are cut exactly from the mesh's triangles
+(``Depth.section``), not read off the image's cells, since the surface there is steep.  The
+hairline, which a bald mesh does not show, is ``0.9 E`` above the glabella; the cheekbone
+is ``0.3 E`` out from and ``0.31 E`` below the eye.  Every point but the eye is then put on
+the surface seen from the front.
 
 A face no rule fits (no nose, no eyes: a sphere, a cube) gets the bounding-box guess of
 ``presets.estimate_landmarks`` and a message saying so.  Pure NumPy; no loop over
-vertices (only over the few boundary loops, the landmarks and a handful of passes over
-the small depth image).
+vertices (only over the few boundary loops, the landmarks, a handful of passes over the
+small depth image and some fifty profiles cut beside each eye).
 """
 
 import numpy as np
@@ -62,8 +68,17 @@ FALLBACK_MESSAGE = ("No eye or mouth openings, ARKit shape keys or recognisable 
                     "Move each onto its feature before adding the muscle set")
 
 # Proportions in units of E, the distance between the eye centres (module doc).
-BROW_OUT = 0.26
+BROW_OUT = 0.26  # the outer brow when neither the ridge's end nor the temple shows
 BROW_UP = 0.25
+BROW_MIN, BROW_MAX = 0.15, 0.50  # the outer brow's bounds out from the eye
+RIDGE_BAND = (0.12, 0.50)  # the brow ridge's crest is searched this high above the eye
+RIDGE_CHORD = 0.06  # half the chord of the ridge's convexity
+RIDGE_TRACK = 0.03  # how far the crest may move from one column (0.01 E) to the next
+RIDGE_END = 0.5  # the ridge ends where its convexity is down to this share of its peak
+TEMPLE_FROM, TEMPLE_MAX = 45.0, 75.0  # degrees the forehead has turned from the front
+TEMPLE_BEND = 10.0  # degrees the profile turns, at least, over the run before the knee
+TEMPLE_RUN = 0.08  # the run (E) over which the turn is compared before and after
+TEMPLE_CUTS = (-0.04, 0.0, 0.04)  # the heights (E, round the brow's) the temple is cut at
 HAIRLINE_UP = 0.90
 CANTHUS = 0.22  # the eye's corners either side of its centre
 CHEEK_OUT, CHEEK_DOWN = 0.30, 0.31
@@ -155,6 +170,48 @@ class Depth:
         np.minimum.at(y, row * nx + col, pts[:, 1])
         self.y = np.where(np.isfinite(y), y, np.nan).reshape(nz, nx)
         self.shape = (nz, nx)
+        self.tri = p[t]  # (T, 3, 3): the front-facing triangles, for exact sections
+
+    def triangles_in(self, x_lo, x_hi, z_lo, z_hi):
+        """The front-facing triangles (T, 3, 3) that reach into the box [x_lo, x_hi] x
+        [z_lo, z_hi] of the front view: a region's sections cut only those."""
+        lo, hi = self.tri.min(axis=1), self.tri.max(axis=1)
+        keep = (hi[:, 0] >= x_lo) & (lo[:, 0] <= x_hi) & (hi[:, 2] >= z_lo) & (lo[:, 2] <= z_hi)
+        return self.tri[keep]
+
+    def section(self, axis, value, s, tri=None):
+        """The front-most y of the front-facing surface along the line where coordinate
+        ``axis`` (0: x, 2: z) is ``value``, at the other coordinate's values ``s`` (NaN
+        where no surface is seen): exact, from the triangles (``tri``, by default all of
+        them), not the image's cells."""
+        s = np.asarray(s, np.float64).ravel()
+        other = 2 - axis
+        tri = self.tri if tri is None else tri
+        d = tri[:, :, axis] - value
+        up = d > 0.0
+        cross = up.any(axis=1) & ~up.all(axis=1)
+        tri, d, up = tri[cross], d[cross], up[cross]
+        if len(tri) == 0:
+            return np.full(len(s), np.nan)
+        ends = []
+        for i, j in ((0, 1), (1, 2), (2, 0)):  # the three edges; two of them cross
+            e = up[:, i] != up[:, j]
+            t = d[:, i] / np.where(e, d[:, i] - d[:, j], 1.0)
+            ends.append((e, tri[:, i] + t[:, None] * (tri[:, j] - tri[:, i])))
+        a = np.where(ends[0][0][:, None], ends[0][1], ends[1][1])
+        b = np.where(ends[2][0][:, None], ends[2][1], ends[1][1])
+        u0, u1 = a[:, other:other + 1], b[:, other:other + 1]
+        span = u1 - u0
+        t = (s[None, :] - u0) / np.where(np.abs(span) > 1e-12, span, 1.0)
+        inside = (t >= 0.0) & (t <= 1.0) & (np.abs(span) > 1e-12)
+        y = np.where(inside, a[:, 1:2] + t * (b[:, 1:2] - a[:, 1:2]), np.inf).min(axis=0)
+        return np.where(np.isfinite(y), y, np.nan)
+
+    def surface(self, x, z):
+        """The front surface's y at (x, z), exact; the nearest seen cell's where the ray
+        from the front meets no front-facing triangle (an opening)."""
+        y = self.section(2, z, [x])[0]
+        return float(y) if np.isfinite(y) else _surface_y(self, x, z)
 
     def col(self, x):
         return int(np.clip(round((x - self.x0) / self.cell), 0, self.shape[1] - 1))
@@ -240,7 +297,7 @@ def _openings(p, loops, scale):
     _s, eye_l, eye_r, mouth = best
     m = p[mouth]
     return {"eye_L": eye_l, "eye_R": eye_r, "mouth_L": m[np.argmax(m[:, 0])],
-            "mouth_R": m[np.argmin(m[:, 0])]}, {}
+            "mouth_R": m[np.argmin(m[:, 0])]}, {"corner_pit": True, "rim": True}
 
 
 def _keys_named(shape_keys, stem):
@@ -485,6 +542,108 @@ def _surface_y(depth, x, z):
 # --------------------------------------------------------------------------
 # From the anchors to the eight landmarks
 # --------------------------------------------------------------------------
+def _ridge_end(depth, eye_x, eye_z, sign, sep):
+    """How far out from the eye (in x, >= 0) the brow ridge ends on one side, or None.
+
+    Each column from the eye outward is cut vertically; the ridge's strength there is the
+    convexity of that profile at its crest (the profile's forward bulge over a chord
+    ``2 RIDGE_CHORD`` E long).  The crest is the most convex point ``RIDGE_BAND`` E above
+    the eye in the eye's column, and in each further column the most convex point within
+    ``RIDGE_TRACK`` E of the last one's (the ridge is a long band: a lid's bulge near the
+    eye's corner does not take it over).  The ridge ends where its strength has fallen to
+    ``RIDGE_END`` of the largest it had further in."""
+    step = 0.005
+    zs = eye_z + sep * np.arange(RIDGE_BAND[0] - RIDGE_CHORD, RIDGE_BAND[1] + RIDGE_CHORD + step, step)
+    k = int(round(RIDGE_CHORD / step))
+    reach = int(round(RIDGE_TRACK / step))
+    offsets = sep * np.arange(0.0, BROW_MAX + 0.01, 0.01)
+    xs = eye_x + sign * offsets
+    tri = depth.triangles_in(xs.min(), xs.max(), zs[0], zs[-1])
+    strength = np.full(len(offsets), np.nan)
+    crest = None
+    for i, x in enumerate(xs):  # some 50 columns
+        y = depth.section(0, x, zs, tri)
+        bulge = 0.5 * (y[:-2 * k] + y[2 * k:]) - y[k:-k]
+        if crest is not None:
+            window = np.full(len(bulge), np.nan)
+            lo, hi = max(crest - reach, 0), crest + reach + 1
+            window[lo:hi] = bulge[lo:hi]
+            bulge = window
+        if not np.isfinite(bulge).any():
+            break  # the ridge's band is lost (an opening, the silhouette)
+        crest = int(np.nanargmax(bulge))
+        strength[i] = bulge[crest]
+    strength = smooth1(strength, 1)
+    peak = np.fmax.accumulate(strength)
+    if not np.nanmax(peak, initial=-np.inf) > 0.0:
+        return None
+    after = np.arange(len(offsets)) >= np.searchsorted(offsets, BROW_MIN * sep)
+    below = np.flatnonzero(after & ~(strength >= RIDGE_END * peak))
+    if len(below) == 0 or below[0] == 0:
+        return None
+    j = int(below[0])
+    # between the last column above the threshold and the first below it
+    a, b = strength[j - 1] - RIDGE_END * peak[j - 1], strength[j] - RIDGE_END * peak[j]
+    f = a / (a - b) if np.isfinite(b) and a > 0 else 0.0
+    return float(offsets[j - 1] + f * (offsets[j] - offsets[j - 1]))
+
+
+def _temple(depth, eye_x, brow_z, sign, sep):
+    """How far out from the eye (in x, >= 0) the forehead turns into the temple at the
+    brow's height on one side, or None.  The horizontal profile there, cut exactly, turns
+    away from the front more and more toward the side; on a head with a temporal line the
+    turn stops where the temple's flatter side begins.  That knee is where, past
+    ``TEMPLE_FROM`` degrees and after a bend (at least ``TEMPLE_BEND`` degrees over the last
+    ``TEMPLE_RUN`` E), the profile turns over the next ``TEMPLE_RUN`` E less than a third as
+    much (either way: turning back is an ear or hair in front of the temple, not the knee),
+    the most so; on a head whose side keeps turning evenly, it is where the profile has
+    turned ``TEMPLE_MAX`` degrees."""
+    step = 0.005 * sep
+    offsets = np.arange(0.0, (BROW_MAX + TEMPLE_RUN) * sep + step, step)
+    y = depth.section(2, brow_z, eye_x + sign * offsets)
+    ok = np.flatnonzero(np.isfinite(y))
+    edge = int(round(0.02 * sep / step))
+    if len(ok) == 0 or ok[-1] - 2 * edge < 10:
+        return None
+    last = ok[-1] - edge  # without the smoothing's edge at the silhouette
+    angle = np.degrees(np.arctan(np.gradient(smooth1(y[:ok[-1] + 1], edge), offsets[:ok[-1] + 1])))
+    angle = angle[:last + 1]
+    n = int(round(TEMPLE_RUN * sep / step))
+    i = np.arange(len(angle))
+    before = angle - angle[np.maximum(i - n, 0)]
+    after = angle[np.minimum(i + n, len(angle) - 1)] - angle
+    knee = (angle >= TEMPLE_FROM) & (before >= TEMPLE_BEND) & (np.abs(after) < before / 3.0)
+    knee &= i + n < len(angle)
+    knee &= offsets[:len(angle)] <= BROW_MAX * sep
+    if knee.any():
+        first = int(np.flatnonzero(knee)[0])
+        run = first + int(np.argmin(knee[first:])) if not knee[first:].all() else len(knee)
+        drop = (before - after)[first:run]
+        return float(offsets[first + int(np.nanargmax(drop))])
+    turned = np.flatnonzero(angle >= TEMPLE_MAX)
+    return float(offsets[turned[0]]) if len(turned) else None
+
+
+def _brow_outer(depth, eye, mid_x, sep):
+    """The (x, z) of the brow's outer end: a quarter of E above the eye (``BROW_UP``), and
+    out from the eye where the brow ridge ends (``_ridge_end``) or the forehead turns into
+    the temple (``_temple``), whichever comes first, within ``BROW_MIN`` to ``BROW_MAX`` E
+    of the eye; both sides are measured and the mean offset is kept.  Where neither
+    shows (no ridge, no front to cut), ``BROW_OUT`` E."""
+    brow_z = eye[2] + BROW_UP * sep
+    ends = []
+    for sign in (1.0, -1.0):
+        eye_x = mid_x + sign * abs(eye[0] - mid_x)
+        temple = [_temple(depth, eye_x, brow_z + dz * sep, sign, sep) for dz in TEMPLE_CUTS]
+        temple = [t for t in temple if t is not None]
+        found = [e for e in (_ridge_end(depth, eye_x, eye[2], sign, sep),
+                             np.median(temple) if temple else None) if e is not None]
+        if found:
+            ends.append(min(found))
+    out = float(np.clip(np.mean(ends), BROW_MIN * sep, BROW_MAX * sep)) if ends else BROW_OUT * sep
+    return eye[0] + out, brow_z
+
+
 def _complete(p, depth, anchors, hints):
     eye_l, eye_r = anchors["eye_L"], anchors["eye_R"]
     mouth_l, mouth_r = anchors["mouth_L"], anchors["mouth_R"]
@@ -501,7 +660,11 @@ def _complete(p, depth, anchors, hints):
         r, c, k = depth.row(mouth[2]), depth.col(mouth[0]), max(int(0.05 * sep / depth.cell), 1)
         block = depth.y[max(r - k, 0):r + k + 1, max(c - k, 0):c + k + 1]
         if np.isfinite(block).any():
-            mouth[1] = float(np.nanmax(block))
+            pit = float(np.nanmax(block))
+            # an opening's corner is its rim's end, inside the lips: the skin's corner, where
+            # the lips meet in front of it, is no deeper (what the opening shows behind it, a
+            # mouth's inside, is not the skin)
+            mouth[1] = min(pit, mouth[1]) if hints.get("rim") else pit
     # The nose tip: the most forward vertex between the mouth and the eyes, near the midline.
     near = (np.abs(p[:, 0] - mid_x) < 0.3 * sep) & (p[:, 2] > mouth_z) & (p[:, 2] < eye_z)
     if not near.any():
@@ -524,15 +687,14 @@ def _complete(p, depth, anchors, hints):
     g = extreme(nasion_z, top, False)
     glab_z = zs[g] if g is not None else eye_z + 0.3 * sep
     chin_z = _chin(prof, zs, depth, mouth_z, sep)
-    # The brow's outer end, and the eye's depth: the mean of the surface at its two
-    # corners (an eye may be an opening, or a lid bulging out of its socket).
-    bx, brow_z = eye[0] + BROW_OUT * sep, eye[2] + BROW_UP * sep
+    # The eye's depth: the mean of the surface at its two corners (an eye may be an
+    # opening, or a lid bulging out of its socket).
     eye = np.array([eye[0], 0.5 * (_surface_y(depth, eye[0] - CANTHUS * sep, eye[2])
                                    + _surface_y(depth, eye[0] + CANTHUS * sep, eye[2])), eye[2]])
     xz = {
         "hairline_center": (mid_x, glab_z + HAIRLINE_UP * sep),
         "glabella": (mid_x, glab_z),
-        "brow_outer_L": (bx, brow_z),
+        "brow_outer_L": _brow_outer(depth, eye, mid_x, sep),
         "nose_tip": None,
         "mouth_corner_L": None,
         "chin": (mid_x, chin_z),
@@ -544,7 +706,7 @@ def _complete(p, depth, anchors, hints):
         if xz[key] is None:
             continue
         x, z = xz[key]
-        out[key] = np.array([x, _surface_y(depth, x, z), z])
+        out[key] = np.array([x, depth.surface(x, z), z])
     out["nose_tip"] = np.asarray(nose, np.float64).copy()
     out["eye_L"] = eye
     out["mouth_corner_L"] = mouth

@@ -4,12 +4,14 @@
 Returned as (2k, 3) arrays of segment end points in the muscle's (face-local)
 space, for the viewport overlay.  A linear muscle's cone is drawn in two
 perpendicular planes through its central fibre; a sheet muscle's rectangles
-lie in the sheet's plane.
+lie in the sheet's plane; a sphincter's outer ellipse and its wrinkling sector lie in
+its plane.
 """
 
 import numpy as np
 
-from .waters import LINEAR, region_start, sheet_frame
+from . import sphincter
+from .waters import LINEAR, SPHINCTER, region_start, sheet_frame
 
 
 def _polyline(points, closed=False):
@@ -46,6 +48,17 @@ def muscle_outline(m, arc_steps=16):
             quad = [a + m.length * (lam * fibre + s * lam * tan * axis) for lam, s in corners]
             region.append(_polyline(quad, closed=True))
         return {"aoi": np.concatenate(aoi), "region": np.concatenate(region)}
+    if m.kind == SPHINCTER:
+        c, a, b, _n, ra, rb = sphincter.frame(m)
+
+        def arc(rho, t0, t1):
+            t = np.linspace(t0, t1, 4 * arc_steps)
+            return c + rho * (np.cos(t)[:, None] * ra * a + np.sin(t)[:, None] * rb * b)
+
+        lo, th = m.lambda_w * m.length, m.spread
+        sector = np.concatenate([arc(lo, -th, th), arc(m.length, th, -th)])
+        return {"aoi": _polyline(arc(m.length, -np.pi, np.pi), closed=True),
+                "region": _polyline(sector, closed=True)}
     origin, fibre, across, _n, _l = sheet_frame(m)
     half = 0.5 * m.spread
 

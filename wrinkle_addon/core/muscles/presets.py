@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Zhang 2005 Fig. 1 muscle layout from a few facial landmarks, and the §3 expressions.
+"""Zhang 2005 Fig. 1 muscle layout from a few facial landmarks, and the §3 expressions; with
+the sphincters round the eyes and the mouth, and the Procerus (``sphincter``).
 
 All coordinates are the face's local space with the face looking toward -Y and
 Z up (Blender's front view); the character's left is +X.  The layout only
@@ -38,7 +39,12 @@ MUSCLES = (
     ("RISORIUS", "Risorius", "LINEAR"),
     ("DEPRESSOR_ANGULI", "Depressor Anguli Oris", "LINEAR"),
     ("MENTALIS", "Mentalis", "LINEAR"),
+    # beyond Zhang's ten: the sphincters he names as future work, and the Procerus
+    ("ORBICULARIS_OCULI", "Orbicularis Oculi", "SPHINCTER"),
+    ("ORBICULARIS_ORIS", "Orbicularis Oris", "SPHINCTER"),
+    ("PROCERUS", "Procerus", "LINEAR"),
 )
+MIDLINE = ("ORBICULARIS_ORIS", "PROCERUS")  # one muscle on the midline, not a mirrored pair
 
 # Zhang §3: which muscles each expression contracts, and how much.
 EXPRESSIONS = {
@@ -65,7 +71,7 @@ ROLE_PARAMS = {
     "FRONTALIS_OUTER": {"lambda_w": 0.0, "n_wrinkles": 6, "pull": 0.18},
     # frown lines ("the elevens") and bunny lines are deep for their spacing
     # a wide fan, so the furrows near the glabella run 10-20 mm up and down
-    "CORRUGATOR": {"lambda_w": 0.15, "n_wrinkles": 3, "depth_factor": 1.0},
+    "CORRUGATOR": {"lambda_w": 0.15, "n_wrinkles": 2, "depth_factor": 1.0},
     "NASALIS": {"lambda_w": 0.3, "n_wrinkles": 3, "angle": 30.0, "depth_factor": 0.4},
     "ZYGOMATICUS_MINOR": {"lambda_w": 0.5, "n_wrinkles": 2},
     # the mouth muscles end at the mouth corner: a short reach and a narrow cone keep
@@ -74,6 +80,17 @@ ROLE_PARAMS = {
     "RISORIUS": {"lambda_w": 0.5, "n_wrinkles": 2, "angle": 20.0, "reach": 1.05},
     "DEPRESSOR_ANGULI": {"lambda_w": 0.5, "n_wrinkles": 2, "reach": 1.1},
     "MENTALIS": {"lambda_w": 0.2, "n_wrinkles": 3, "angle": 40.0},
+    # sphincters: ``reach`` is the outer extent in ring radii, ``angle`` the half-angle of the
+    # wrinkling sector round the axis a.  The eye's: crow's feet from just beside the outer
+    # corner (rho 0.7 of a ring 0.4 E wide) out to 1.45 rings, fanning over about 90 degrees
+    "ORBICULARIS_OCULI": {"lambda_w": 0.48, "n_wrinkles": 6, "angle": 50.0, "angle_c": 35.0,
+                          "reach": 1.45, "depth_factor": 0.8},
+    # the mouth's: the vertical lines of the upper lip, between the red of the lip and the nose
+    "ORBICULARIS_ORIS": {"lambda_w": 0.45, "n_wrinkles": 5, "angle": 45.0, "angle_c": 20.0,
+                         "reach": 1.15, "depth_factor": 0.4},
+    # the horizontal lines at the root of the nose: fine and shallow (a deep one reads as a tube)
+    "PROCERUS": {"lambda_w": 0.5, "n_wrinkles": 3, "angle": 25.0, "angle_c": 15.0, "reach": 1.3,
+                 "depth_factor": 0.3},
 }
 
 
@@ -161,6 +178,7 @@ def layout(landmarks):
         return [(x(c0), attach_z), (x(c1), attach_z), (x(c1), insert_z), (x(c0), insert_z)]
 
     ey = eye[1]
+    e = 2.0 * abs(eye[0] - g[0])  # the distance between the eyes
     mid = abs(mouth[0] - g[0])
     out = {
         "FRONTALIS_INNER": sheet(0),
@@ -184,10 +202,23 @@ def layout(landmarks):
                              (mouth[0], mouth[1])],
         "MENTALIS": [(g[0] + sign * 0.3 * mid, mouth[1] - 0.35 * (mouth[1] - chin[1])),
                      (g[0] + sign * 0.3 * mid, chin[1] + 0.05 * (mouth[1] - chin[1]))],
+        # sphincters: [centre, end of the axis a (the wrinkling sector's middle), end of b].
+        # The eye's ring is 0.4 E across sideways (E: the eyes' distance) and 0.33 E up, its
+        # axis a toward the outer corner
+        "ORBICULARIS_OCULI": [(eye[0], ey), (eye[0] + sign * 0.4 * e, ey), (eye[0], ey + 0.33 * e)],
+        # the mouth's round the mouth line's middle, its axis a up to below the nose
+        "ORBICULARIS_ORIS": [(g[0], mouth[1]), (g[0], mouth[1] + 0.8 * (nose[1] - mouth[1])),
+                             (g[0] + sign * 1.2 * mid, mouth[1])],
+        # the Procerus from the nasal bone up into the skin between the brows: it draws that
+        # skin down, and the line at the root of the nose runs across it
+        "PROCERUS": [(g[0], ey - 0.6 * (g[1] - ey)), (g[0], ey + 0.5 * (g[1] - ey))],
     }
     result = []
     for role, _name, kind in MUSCLES:
         pts = np.array(out[role], float)
+        if role in MIDLINE:
+            result.append((role, "C", kind, pts))
+            continue
         result.append((role, "L", kind, pts))
         mirrored = pts.copy()
         mirrored[:, 0] = 2.0 * g[0] - mirrored[:, 0]

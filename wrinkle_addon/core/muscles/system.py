@@ -26,7 +26,7 @@ import numpy as np
 
 from .. import combine, mesh
 from . import zhang
-from .waters import LINEAR, muscle_field
+from .waters import LINEAR, SPHINCTER, muscle_field
 
 _F = np.float32
 
@@ -71,6 +71,13 @@ class Plan:
     smooth_weights: np.ndarray = None  # (R, 4) float32 bilinear weights
     smooth_norm: np.ndarray = None  # (cells,) 1 / total weight per cell (0 where empty)
     smooth_size: int = 0
+    # folds that meet (``families``): at the vertices where two families of folds overlap,
+    # each (vertex, family) pair's strength and height are summed and blended
+    blend_rows: np.ndarray = None  # (B,) the rows at those vertices
+    blend_pair: np.ndarray = None  # (B,) their (vertex, family) pair
+    blend_env: np.ndarray = None  # (B,) float32: each row's envelope At (keep-out included)
+    blend_pair_vert: np.ndarray = None  # (Q,) index into ``height_sum.keys`` of each pair
+    blend_verts: np.ndarray = None  # (V,) indices into ``height_sum.keys`` that are blended
 
 
 # A(eps) smoothing cells, in half cycles u: (along the fibre, across it).  A row's splat and
@@ -123,6 +130,99 @@ def smooth_rows(plan, values):
                       minlength=plan.smooth_size)
     grid = (num * plan.smooth_norm).astype(_F)
     return np.einsum("ij,ij->i", plan.smooth_weights, grid[plan.smooth_cells])
+
+
+# How sharply the stronger family of folds takes over where two meet (the weight is the
+# family's strength to this power, normalised): at twice the other's strength it has 94 %
+BLEND_POWER = 4.0
+_SAME_FOLD = 0.9  # the correlation of two muscles' profiles H(w) above which they are one family
+
+
+def families(fields, n):
+    """One family index per muscle: muscles whose folds are one set of folds where their
+    regions overlap (their profiles H(w) correlate above ``_SAME_FOLD`` and their directions
+    of contraction agree there) are one family, as the Frontalis sheets that share one phase.
+    Muscles whose regions do not overlap are each their own.  A loop over pairs of muscles
+    (a face has a few dozen), vectorised over their shared vertices."""
+    parent = list(range(len(fields)))
+
+    def root(i):
+        while parent[i] != i:
+            i = parent[i]
+        return i
+
+    profiles = []
+    for f in fields:
+        prof = np.full(n, np.nan)
+        if f.envelope is not None and len(f.region):
+            ok = np.abs(f.envelope) > 1e-3
+            prof[f.region[ok]] = f.amplitude[ok] / f.envelope[ok]
+        profiles.append(prof)
+    for i in range(len(fields)):
+        for j in range(i + 1, len(fields)):
+            shared = np.isfinite(profiles[i]) & np.isfinite(profiles[j])
+            if shared.sum() < 8:
+                continue
+            a, b = profiles[i][shared], profiles[j][shared]
+            if a.std() < 1e-12 or b.std() < 1e-12 or np.corrcoef(a, b)[0, 1] < _SAME_FOLD:
+                continue
+            da = _directions(fields[i], shared, n)
+            db = _directions(fields[j], shared, n)
+            if np.mean(np.abs(np.einsum("ij,ij->i", da, db))) < _SAME_FOLD:
+                continue
+            parent[root(j)] = root(i)
+    roots = [root(i) for i in range(len(fields))]
+    _u, fam = np.unique(roots, return_inverse=True)
+    return fam.astype(np.int64)
+
+
+def _directions(f, shared, n):
+    """The direction of contraction of field ``f`` at the vertices ``shared`` (mask (n,))."""
+    at = np.full(n, -1, np.int64)
+    at[f.region] = np.arange(len(f.region))
+    return f.contraction_dir[at[shared]]
+
+
+def _blend_plan(row_vert, row_family, row_env, keys):
+    """The static part of the blend of folds (see :func:`blend`): only the wrinkled local
+    vertices where rows of two or more families meet."""
+    pairs, row_pair = np.unique(np.stack([row_vert, row_family], axis=1), axis=0, return_inverse=True)
+    row_pair = row_pair.ravel()
+    count = np.bincount(pairs[:, 0], minlength=int(keys.max()) + 1 if len(keys) else 0)
+    mixed = count[row_vert] > 1
+    if not mixed.any():
+        return None
+    rows = np.flatnonzero(mixed)
+    used, pair = np.unique(row_pair[rows], return_inverse=True)
+    key_of = np.full(int(keys.max()) + 1, -1, np.int64)
+    key_of[keys] = np.arange(len(keys))
+    pair_vert = key_of[pairs[used, 0]]
+    return rows, pair.ravel(), row_env[rows].astype(_F), pair_vert, np.unique(pair_vert)
+
+
+def blend(plan, a, w, height):
+    """Where folds of two families meet, blend them instead of summing: each (vertex,
+    family) pair's strength ``E = sum of At A(eps)`` and height ``S = sum of W``; the vertex's
+    height is ``sum_f E_f^p S_f / sum_f E_f^p`` (p = ``BLEND_POWER``).  Summed, two sets of
+    folds that cross pile into a slit beside a bump (Zhang et al. name "prevent neighbouring
+    folds from intersecting" as future work); blended, the folds of the stronger compression
+    run through and the other's fade out, smoothly.  ``a`` (R,) is each row's smoothed A(eps),
+    ``w`` (R,) its height W, ``height`` the summed heights at ``height_sum.keys`` (changed in
+    place at the blended vertices only: elsewhere one family's folds are exactly the sum)."""
+    if plan.blend_rows is None:
+        return height
+    rows, pair = plan.blend_rows, plan.blend_pair
+    q = len(plan.blend_pair_vert)
+    strength = np.bincount(pair, weights=plan.blend_env * a[rows], minlength=q) ** BLEND_POWER
+    folds = np.bincount(pair, weights=w[rows], minlength=q)
+    n = len(height)
+    total = np.bincount(plan.blend_pair_vert, weights=strength, minlength=n)
+    mixed = np.bincount(plan.blend_pair_vert, weights=strength * folds, minlength=n)
+    v = plan.blend_verts
+    out = np.asarray(height).copy()
+    some = total[v] > 0.0
+    out[v[some]] = (mixed[v[some]] / total[v[some]]).astype(out.dtype)
+    return out
 
 
 def wrinkle_limit(rest, edges, muscle, f):
@@ -179,7 +279,8 @@ def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
     if keep_out is not None:
         keep_out = np.clip(np.nan_to_num(np.asarray(keep_out, np.float64).ravel()), 0.0, 1.0)
         pull_weight = pull_weight * keep_out[pull_vert]
-    linear = np.array([m.sanitized().kind == LINEAR for m in muscles], bool)[pull_muscle]
+    # a linear muscle and a sphincter pull toward a point (the attachment, the centre)
+    linear = np.array([m.sanitized().kind in (LINEAR, SPHINCTER) for m in muscles], bool)[pull_muscle]
     pull_target = np.array([f.target for f in fields]).reshape(-1, 3)[pull_muscle] * linear[:, None]
     pull_dir = np.array([f.pull_dir for f in fields]).reshape(-1, 3)[pull_muscle] * ~linear[:, None]
     muscle_pull = np.array([0.0 if m.sanitized().wrinkles_only else m.sanitized().pull for m in muscles])
@@ -191,9 +292,15 @@ def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
     if keep_out is not None:
         row_amp = row_amp * keep_out[row_vert]
     row_cdir = np.concatenate([f.contraction_dir for f in fields] + [np.zeros((0, 3))])
+    row_env = np.concatenate([f.envelope if f.envelope is not None else np.ones(len(f.region))
+                              for f in fields] + [np.zeros(0)])
+    if keep_out is not None:
+        row_env = row_env * keep_out[row_vert]
+    row_family = families(fields, n)[row_muscle] if n_m else np.zeros(0, np.int64)
     keep = row_amp != 0.0
     cells, cell_w, n_cells, cell_total = _smoothing(fields, keep)
     row_vert, row_muscle, row_amp, row_cdir = row_vert[keep], row_muscle[keep], row_amp[keep], row_cdir[keep]
+    row_env, row_family = row_env[keep], row_family[keep]
 
     offsets, inc_edge = mesh.vertex_incidence(edges, n)
     pair_row, pair_edge = mesh.gather_incident(offsets, inc_edge, row_vert)
@@ -223,6 +330,7 @@ def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
     local[verts] = np.arange(len(verts))
     wrinkled_local = np.unique(local[row_vert])
     pulls = bool(len(pull_vert)) and bool(np.any(muscle_pull > 0))
+    folds = _blend_plan(local[row_vert], row_family, row_env, wrinkled_local) if len(row_vert) else None
     footprint = combine.Footprint(offset_verts=verts.astype(np.int64) if pulls else np.zeros(0, np.int64),
                                   height_verts=verts[wrinkled_local].astype(np.int64))
     return Plan(
@@ -256,6 +364,8 @@ def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
         smooth_weights=cell_w,
         smooth_norm=np.where(cell_total > 0, 1.0 / np.where(cell_total > 0, cell_total, 1.0), 0.0),
         smooth_size=n_cells,
+        **(dict(zip(("blend_rows", "blend_pair", "blend_env", "blend_pair_vert", "blend_verts"), folds))
+           if folds is not None else {}),
     )
 
 
@@ -303,8 +413,9 @@ def _pull_and_heights(plan, s, contraction, strength):
     summed height W at the wrinkled local vertices ``plan.height_sum.keys``."""
     offset = waters_pull(plan, s, contraction)
     pulled = s if offset is None else s + offset
-    w = plan.row_amp * smooth_rows(plan, zhang.anisotropic(compression(plan, pulled)))
-    return offset, pulled, plan.height_sum.sum(w) * _F(np.nan_to_num(strength))
+    a = smooth_rows(plan, zhang.anisotropic(compression(plan, pulled)))
+    w = plan.row_amp * a
+    return offset, pulled, blend(plan, a, w, plan.height_sum.sum(w)) * _F(np.nan_to_num(strength))
 
 
 def part(plan, skin, contraction, strength=1.0):

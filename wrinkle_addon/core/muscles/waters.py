@@ -41,10 +41,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mesh import smoothstep
+from . import irregularity as irregular
 from . import zhang
 
 LINEAR = 0
 SHEET = 1
+SPHINCTER = 2  # Waters' third type, an ellipse round an opening: core/muscles/sphincter.py
 MAX_PULL = 0.6  # < 2/pi, see module doc
 _EPS = 1e-9
 
@@ -72,6 +74,8 @@ class Muscle:
     wrinkles_only: bool = False
     fade_ends: bool = True
     back_reach: float = 0.0  # sheet only: reach behind the attachment line, as a fraction of Ls
+    irregularity: float = 0.0  # natural irregularity of the furrows, 0 to 4 (0: Zhang's regular ones)
+    seed: int = 0  # the irregularity's pattern: the face's, so that neighbouring muscles join
 
     def sanitized(self):
         """A copy with NaN/inf replaced and every parameter clamped to its valid range."""
@@ -87,7 +91,7 @@ class Muscle:
             return np.nan_to_num(p, nan=0.0, posinf=0.0, neginf=0.0)
 
         return Muscle(
-            kind=SHEET if int(self.kind) == SHEET else LINEAR,
+            kind=int(self.kind) if int(self.kind) in (SHEET, SPHINCTER) else LINEAR,
             attachment=pts(self.attachment),
             insertion=pts(self.insertion),
             length=f(self.length, 0.0, 1e9, 0.0),
@@ -102,6 +106,8 @@ class Muscle:
             wrinkles_only=bool(self.wrinkles_only),
             fade_ends=bool(self.fade_ends),
             back_reach=f(self.back_reach, 0.0, 10.0, 0.0),
+            irregularity=f(self.irregularity, 0.0, irregular.MAX_AMOUNT, 0.0),
+            seed=_seed(self.seed),
         )
 
     def problem(self):
@@ -114,6 +120,10 @@ class Muscle:
                 return "its radius R is 0"
             if m.spread <= _EPS:
                 return "its angle is 0"
+        elif m.kind == SPHINCTER:
+            from . import sphincter
+
+            return sphincter.problem(m)
         else:
             if m.attachment.shape[0] < 2 or m.insertion.shape[0] < 2:
                 return "a sheet muscle needs two attachment and two insertion points"
@@ -141,8 +151,9 @@ class MuscleField:
     half_cycle: float  # u (eq. 6)
     coords: np.ndarray = None  # (len(region), 2) the region's points in the muscle's plane:
     # (along the fibre, across it), local units; where A(eps) is smoothed (system.build_plan)
-    envelope: np.ndarray = None  # (len(region),) At * fade (* slab) in [0, 1]: the amplitude's
-    # envelope without the wrinkle profile H(w) (refinement)
+    envelope: np.ndarray = None  # (len(region),) At * fade (* slab) in [0, 1], times the
+    # irregularity's depth factor (about 1): the amplitude's envelope without the wrinkle
+    # profile H(w) (refinement)
 
 
 def sheet_frame(m):
@@ -224,6 +235,10 @@ def muscle_field(rest, muscle):
     rest = np.asarray(rest, dtype=np.float64)
     if m.kind == LINEAR:
         return _linear_field(rest, m)
+    if m.kind == SPHINCTER:
+        from . import sphincter
+
+        return sphincter.field(rest, m)
     return _sheet_field(rest, m)
 
 
@@ -233,18 +248,34 @@ def region_start(m, length, lo=0.0):
     return lo + m.lambda_w * (length - lo)
 
 
-def _wrinkle_amplitude(l, across, across_c, across_max, m, length, lo=0.0):
+def _seed(seed):
+    """``seed`` as an int (0 for a value that is not a finite number)."""
+    try:
+        return int(seed)
+    except (TypeError, ValueError, OverflowError):
+        return 0
+
+
+def _wrinkle_amplitude(l, across, across_c, across_max, m, length, lo=0.0, points=None):
     """``H(w) At`` (eqs. 5-7, with a C¹ attenuation in place of eqs. 12/15) plus the optional
     end fade, for a muscle whose extent along ``l`` is ``[lo, length]`` (``lo`` is 0 but for a
-    sheet that reaches behind its attachment line)."""
+    sheet that reaches behind its attachment line).  With ``points`` (the region's rest
+    positions) and an irregularity, the phase ``l`` is warped and the envelope multiplied by
+    the depth factor of :func:`irregularity.apply`; the region's ends and the end fade stay
+    on the unwarped ``l``."""
     span = length - lo  # the muscle's whole extent along l (R, Ls, or (1 + b) Ls)
     u = zhang.half_cycle(span, m.lambda_w, m.n_wrinkles)
     if m.n_wrinkles < 0.5:  # n_w = 0: no wrinkles, the muscle still pulls
         return np.zeros_like(l), float(u), np.zeros_like(l)
-    w = zhang.cycle_position(np.asarray(l) - lo, m.lambda_w, span, u)
+    phase, depth = np.asarray(l), None
+    if points is not None and m.irregularity > 0.0:
+        phase, depth = irregular.apply(points, phase, u, m.seed, m.irregularity)
+    w = zhang.cycle_position(phase - lo, m.lambda_w, span, u)
     env = zhang.attenuation(across, across_c, across_max)
     if m.fade_ends:
         env = env * zhang.edge_fade(l, region_start(m, length, lo), length, u)
+    if depth is not None:
+        env = env * depth
     return zhang.shape_function(w, u, m.k0, m.alpha) * env, float(u), env
 
 
@@ -265,7 +296,8 @@ def _linear_field(rest, m):
     pull_weight = r_s * angular_falloff(gamma[aoi]) * radial_falloff(dist[aoi], r_s, m.length, squared=True)
 
     region = np.flatnonzero((lam >= m.lambda_w) & (lam <= 1.0) & (gamma <= 1.0))  # eq. 3
-    amp, u, env = _wrinkle_amplitude(l[region], phi[region], m.spread_c, m.spread, m, m.length)
+    amp, u, env = _wrinkle_amplitude(l[region], phi[region], m.spread_c, m.spread, m, m.length,
+                                     points=rest[region])
     cdir = -rel[region] / np.maximum(dist[region], _EPS)[:, None]  # x_i -> m_A
     return MuscleField(
         aoi.astype(np.int32), pull_weight, np.zeros(3), m_a.copy(),
@@ -320,7 +352,8 @@ def _sheet_field(rest, m):
 
     start = region_start(m, m.length, -back)
     region = np.flatnonzero(inside & (l >= start) & (l <= m.length))  # eq. 14
-    amp, u, env = _wrinkle_amplitude(l[region], h[region], h_c, half_w, m, m.length, -back)
+    amp, u, env = _wrinkle_amplitude(l[region], h[region], h_c, half_w, m, m.length, -back,
+                                     points=rest[region])
     amp, env = amp * slab[region], env * slab[region]
     cdir = np.broadcast_to(-fibre, (len(region), 3)).copy()
     coords = np.stack([l[region], rel[region] @ across], axis=1)

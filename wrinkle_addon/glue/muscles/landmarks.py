@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Landmarks and the facial muscle set: Zhang's ten muscles as mirrored pairs, placed from
-eight landmark empties (``core.muscles.presets``)."""
+"""Landmarks and the facial muscle set (Zhang's ten muscles as mirrored pairs, the sphincters
+and the Procerus), placed from eight landmark empties (``core.muscles.presets``)."""
 
 import math
 
@@ -76,7 +76,8 @@ def landmark_objects(face):
 
 
 def build_muscle_set(context, face, landmarks):
-    """Create the ten mirrored muscles from face-local landmarks, and put the landmark empties
+    """Create the facial muscle set (``presets.MUSCLES``: mirrored pairs and the midline
+    muscles) from face-local landmarks, and put the landmark empties
     there (the no-wrinkle zones are built from them).  Returns the new muscle objects.
 
     Every end point is projected onto the skin first: creating objects changes the
@@ -98,6 +99,12 @@ def build_muscle_set(context, face, landmarks):
             # furrows join at the borders instead of stepping by the forehead's curvature
             depth = sum(p.y for p in local) / len(local)
             local = [Vector((p.x, depth, p.z)) for p in local]
+        elif kind == "SPHINCTER":
+            # in the face's front plane, at the depth of its axes' ends (its centre is in the
+            # eye or the mouth, an opening a ray may pass through): its rho and theta are then
+            # measured as the face is seen from the front, like the no-wrinkle zones
+            depth = (local[1].y + local[2].y) / 2
+            local = [Vector((p.x, depth, p.z)) for p in local]
         placed.append((role, side, kind, [mw @ p for p in local]))
     # The Frontalis sheets share one length Ls and one reach behind their attachment line, so eq. 7
     # puts their furrows in phase and a furrow crosses the forehead (presets.layout).
@@ -114,10 +121,15 @@ def build_muscle_set(context, face, landmarks):
         if role in presets.FOREHEAD:
             params["length"] = sheet_length
             params["back_reach"] = max(back_reach, 0.0)
+            # a slab as deep as the sheet is long: the forehead curves back toward the temples
+            # across an outer sheet's width, and a thinner slab faded its furrows out at the
+            # seam with its neighbour, so they ended bluntly there
+            params["depth"] = sheet_length
         for key in ("angle", "angle_c"):
             if key in params:
                 params[key] = math.radians(params[key])
-        ob = muscle_objects.create(context, face, kind, world, name=f"{names[role]}.{side}", **params)
+        name = names[role] if side == "C" else f"{names[role]}.{side}"
+        ob = muscle_objects.create(context, face, kind, world, name=name, **params)
         ob.ewrinkles_muscle.role = role
         ob.ewrinkles_muscle.side = side
         made.append(ob)

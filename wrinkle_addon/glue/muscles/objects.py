@@ -3,21 +3,24 @@
 
 * Linear muscle: 2 vertices, ``[m_A, m_I]`` (attachment, insertion).
 * Sheet muscle: 4 vertices, ``[m_A1, m_A2, m_I2, m_I1]`` drawn as a quad.
+* Sphincter muscle: ``[c, c + a, c + b]``, its centre and the ends of its two semi-axes,
+  then a loop of ``RING`` vertices that draws its ring (only the first three are read).
 
 The artist moves, rotates and scales the object with the normal tools, or
 edits single end points in Edit Mode.  They never render.
 """
 
 import math
+import zlib
 
 import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
-from ...core.muscles.waters import LINEAR, SHEET, Muscle
+from ...core.muscles.waters import LINEAR, SHEET, SPHINCTER, Muscle
 
 COLLECTION_NAME = "Wrinkle Muscles"
-
+RING = 24  # vertices of a sphincter's drawn ring
 
 
 def world_points(ob):
@@ -47,6 +50,11 @@ def to_core(muscle_ob, face):
             pts = np.zeros((4, 3))
         attachment, insertion = pts[[0, 1]], pts[[3, 2]]
         kind, length, spread, spread_c = SHEET, s.length / scale, s.width / scale, s.width_c / scale
+    elif s.kind == "SPHINCTER":
+        if len(pts) < 3:
+            pts = np.zeros((3, 3))
+        attachment, insertion = pts[[0]], pts[[1, 2]]
+        kind, length, spread, spread_c = SPHINCTER, s.reach, s.angle, s.angle_c
     else:
         if len(pts) < 2:
             pts = np.zeros((2, 3))
@@ -58,6 +66,7 @@ def to_core(muscle_ob, face):
         alpha=s.alpha, pull=s.pull, depth=s.depth / scale, wrinkles_only=s.wrinkles_only,
         back_reach=s.back_reach,
         fade_ends=s.fade_ends,
+        irregularity=face.ewrinkles_face.irregularity * s.irregularity, seed=face.ewrinkles_face.seed,
     )
 
 
@@ -69,7 +78,7 @@ def matrix_key(ob):
 
 # The float settings that reach the core (``to_core``); contraction is read per frame.
 FLOATS = ("radius", "angle", "angle_c", "length", "width", "width_c", "depth", "back_reach",
-          "lambda_w", "k0", "alpha", "pull")
+          "reach", "lambda_w", "k0", "alpha", "pull", "irregularity")
 
 
 def parameters(muscle_ob):
@@ -81,9 +90,35 @@ def parameters(muscle_ob):
     s = muscle_ob.ewrinkles_muscle
     values = (
         muscle_ob.name, s.kind, s.radius, s.angle, s.angle_c, s.length, s.width, s.width_c, s.depth,
-        s.back_reach, s.lambda_w, s.n_wrinkles, s.k0, s.alpha, s.pull, s.wrinkles_only, s.fade_ends,
+        s.back_reach, s.reach, s.lambda_w, s.n_wrinkles, s.k0, s.alpha, s.pull, s.wrinkles_only, s.fade_ends,
+        s.irregularity,
     )
     return tuple("nan" if v != v else v for v in values)
+
+
+def face_parameters(face):
+    """The face's settings that reach every muscle's static plan (``to_core``): its
+    Irregularity and Seed, NaN given as ``"nan"`` (see :func:`parameters`)."""
+    s = face.ewrinkles_face
+    return tuple("nan" if v != v else v for v in (s.irregularity, s.seed))
+
+
+def name_seed(name):
+    """A seed from an object's name (CRC32, in an IntProperty's range): two faces set up
+    under different names get different irregular wrinkles."""
+    return zlib.crc32(name.encode("utf-8")) & 0x7FFFFFFF
+
+
+def set_up_face(face):
+    """Give a face being set up (its wrinkles switched on, its first muscle added) its own
+    Seed, from its name, and store its Irregularity, unless they are set already.  The seed
+    is stored, so renaming the face later never changes its wrinkles; a stored Irregularity
+    tells a file saved before the setting existed (``props.migrate``) from a new face."""
+    s = face.ewrinkles_face
+    if not s.is_property_set("seed"):
+        s.seed = name_seed(face.name)
+    if not s.is_property_set("irregularity"):
+        s.irregularity = s.irregularity  # the default, stored
 
 
 def not_finite(muscle_ob):
@@ -117,18 +152,21 @@ def create(context, face, kind, points, name=None, reach=1.3, depth_factor=0.25,
     """Create a muscle object from world-space end points and register it on ``face``.
 
     ``points`` is ``[attachment, insertion]`` for a linear muscle and
-    ``[m_A1, m_A2, m_I2, m_I1]`` for a sheet.  The object's origin is the
-    attachment (its centre for a sheet), so rotating and scaling it behaves
-    naturally.  Unset parameters get defaults sized from the muscle itself: the
+    ``[m_A1, m_A2, m_I2, m_I1]`` for a sheet, ``[c, c + a, c + b]`` for a sphincter.  The
+    object's origin is the attachment (the middle of the attachment line for a sheet, the
+    centre for a sphincter), so rotating and scaling it behaves naturally.  Unset parameters
+    get defaults sized from the muscle itself: the
     area of influence reaches ``reach`` times the attachment-insertion distance,
     and the furrow depth k0 is ``depth_factor`` times the half cycle u.
     """
     pts = [Vector(p) for p in points]
-    origin = pts[0] if kind == "LINEAR" else (pts[0] + pts[1]) / 2
-    name = name or ("Muscle" if kind == "LINEAR" else "Sheet Muscle")
+    origin = (pts[0] + pts[1]) / 2 if kind == "SHEET" else pts[0]
+    name = name or {"LINEAR": "Muscle", "SHEET": "Sheet Muscle"}.get(kind, "Sphincter Muscle")
     me = bpy.data.meshes.new(name)
     local = [p - origin for p in pts]
-    edges = [(0, 1)] if kind == "LINEAR" else [(0, 1), (1, 2), (2, 3), (3, 0)]
+    edges = {"LINEAR": [(0, 1)], "SHEET": [(0, 1), (1, 2), (2, 3), (3, 0)]}.get(kind)
+    if edges is None:  # a sphincter: its axes, and its ring drawn
+        local, edges = sphincter_mesh(local[:3])
     me.from_pydata([tuple(p) for p in local], edges, [])
     ob = bpy.data.objects.new(name, me)
     ob.matrix_world = Matrix.Translation(origin)
@@ -143,11 +181,21 @@ def create(context, face, kind, points, name=None, reach=1.3, depth_factor=0.25,
         setattr(s, key, value)
     _size_defaults(s, kind, pts, reach, depth_factor, given=params)
     if face is not None:
+        set_up_face(face)
         face.ewrinkles_face.muscles.add().object = ob
         if face.type == "MESH":
             ob.parent = face
             ob.matrix_parent_inverse = face.matrix_world.inverted()
     return ob
+
+
+def sphincter_mesh(axes):
+    """The vertices and edges of a sphincter's object from its local ``[c, c + a, c + b]``:
+    those three, joined by its two axes, then its ring of ``RING`` vertices."""
+    c, a, b = axes[0], axes[1] - axes[0], axes[2] - axes[0]
+    ring = [c + a * math.cos(t) + b * math.sin(t) for t in (2 * math.pi * k / RING for k in range(RING))]
+    edges = [(0, 1), (0, 2)] + [(3 + k, 3 + (k + 1) % RING) for k in range(RING)]
+    return list(axes) + ring, edges
 
 
 def _size_defaults(s, kind, pts, reach, depth_factor, given=()):
@@ -160,6 +208,9 @@ def _size_defaults(s, kind, pts, reach, depth_factor, given=()):
     if kind == "LINEAR":
         span = (pts[1] - pts[0]).length
         sizes = {"radius": reach * span}
+    elif kind == "SPHINCTER":
+        ring = max((pts[1] - pts[0]).length, (pts[2] - pts[0]).length)
+        sizes = {"reach": reach, "depth": 2.0 * ring}
     else:
         a_c, i_c = (pts[0] + pts[1]) / 2, (pts[2] + pts[3]) / 2
         span = (i_c - a_c).length
@@ -169,8 +220,13 @@ def _size_defaults(s, kind, pts, reach, depth_factor, given=()):
     for key, value in sizes.items():
         if key not in given:
             setattr(s, key, value)
-    extent = s.radius if kind == "LINEAR" else s.length * (1.0 + s.back_reach)
-    u = (1.0 - s.lambda_w) * extent / (2.0 * max(s.n_wrinkles, 1))
+    if kind == "SPHINCTER":  # the sector's arc on the ring over 2 n_w (core.muscles.sphincter)
+        b = pts[2] - pts[0]
+        a = (pts[1] - pts[0]).normalized()
+        u = s.angle * (b - b.dot(a) * a).length / max(s.n_wrinkles, 1)
+    else:
+        extent = s.radius if kind == "LINEAR" else s.length * (1.0 + s.back_reach)
+        u = (1.0 - s.lambda_w) * extent / (2.0 * max(s.n_wrinkles, 1))
     if "k0" not in given:
         s.k0 = depth_factor * u
 
