@@ -306,6 +306,17 @@ def minima(h, across_axis, window, detect):
     return ok
 
 
+def _parabola(h, ii, jj):
+    """The vertex of the parabola through each minimum ``h[ii, jj]`` and its two neighbours
+    across (axis 0): its offset in cells (within half a cell: ``h[ii, jj]`` is a minimum),
+    so a slanting line is not a staircase, and its height."""
+    hm, h0, hp = h[ii - 1, jj], h[ii, jj], h[ii + 1, jj]
+    curv = hm - 2.0 * h0 + hp
+    safe = np.where(curv > 0, curv, 1.0)
+    frac = np.clip(np.where(curv > 0, 0.5 * (hm - hp) / safe, 0.0), -0.5, 0.5)
+    return frac, h0 - np.where(curv > 0, (hm - hp) ** 2 / (8.0 * safe), 0.0)
+
+
 def _components(pts, pairs):
     """Connected-component labels of ``len(pts)`` points linked by ``pairs`` (P, 2)."""
     lab = np.arange(len(pts))
@@ -353,12 +364,8 @@ def ridges(grid, across, detect_mm, window_mm=1.0, gap_mm=1.0):
     lab = _components(ii, np.concatenate(pairs))
     # sub-cell position of each minimum: the vertex of the parabola through it and its
     # two neighbours across (so a slanting line is not a staircase)
-    hm, h0, hp = h[ii - 1, jj], h[ii, jj], h[ii + 1, jj]
-    curv = hm - 2.0 * h0 + hp
-    frac = np.where(curv > 0, 0.5 * (hm - hp) / np.where(curv > 0, curv, 1.0), 0.0)
-    sub = across_pos[ii] + step * np.clip(frac, -0.5, 0.5)
-    # the parabola's vertex value (h0 is a minimum, so the vertex lies within half a cell)
-    peak_h = h0 - np.where(curv > 0, (hm - hp) ** 2 / (8.0 * np.where(curv > 0, curv, 1.0)), 0.0)
+    frac, peak_h = _parabola(h, ii, jj)
+    sub = across_pos[ii] + step * frac
     peak_of = np.full(h.shape, np.nan)
     peak_of[ii, jj] = -peak_h
     out = []
@@ -712,10 +719,7 @@ def crows_feet_side(grid, corner, outward, interocular, detect_mm=0.1, window_mm
             hit = other >= 0
             pairs.append(np.stack([np.flatnonzero(hit), other[hit]], 1))
     lab = _components(ii, np.concatenate(pairs))
-    hm, h0, hp = h[ii - 1, jj], h[ii, jj], h[ii + 1, jj]
-    curv = hm - 2.0 * h0 + hp
-    frac = np.where(curv > 0, 0.5 * (hm - hp) / np.where(curv > 0, curv, 1.0), 0.0)
-    sub = theta[ii] + dtheta * np.clip(frac, -0.5, 0.5)
+    sub = theta[ii] + dtheta * _parabola(h, ii, jj)[0]
     smooth = int(round(1.0 / step))
     for label in np.unique(lab):
         sel = lab == label

@@ -71,7 +71,7 @@ ROLE_PARAMS = {
     "FRONTALIS_OUTER": {"lambda_w": 0.0, "n_wrinkles": 6, "pull": 0.18},
     # frown lines ("the elevens") and bunny lines are deep for their spacing
     # a wide fan, so the furrows near the glabella run 10-20 mm up and down
-    "CORRUGATOR": {"lambda_w": 0.15, "n_wrinkles": 2, "depth_factor": 1.0},
+    "CORRUGATOR": {"lambda_w": 0.15, "n_wrinkles": 2, "depth_factor": 0.6},
     "NASALIS": {"lambda_w": 0.3, "n_wrinkles": 3, "angle": 30.0, "depth_factor": 0.4},
     "ZYGOMATICUS_MINOR": {"lambda_w": 0.5, "n_wrinkles": 2},
     # the mouth muscles end at the mouth corner: a short reach and a narrow cone keep
