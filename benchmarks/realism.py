@@ -9,7 +9,9 @@ Prints one JSON line per (face, expression) on stdout, e.g.::
     {"face": "ict", "expression": "brow_raise", "furrows": 4, "continuity": 0.7, "angle_deg": 6.0,
      "spacing_cv": 0.2, "furrow_bulge_ratio": 1.8, "eyelid_lip_max_mm": 0.0}
 
-with the keys that apply to the expression (progress and details go to stderr).  How each
+with the keys that apply to the expression (progress and details go to stderr), and for a
+head with ICT's topology whose reference lies beside it, a line with ``"expression":
+"landmarks"`` (``benchmarks/landmarks.py``: the found landmarks against ICT's own 68).  How each
 number is measured, and its goal, is in ``benchmarks/realism_measures.py``.
 
 The faces, rigged as the sample scenes rig them (``sample_scenes/lib/rigging.py``):
@@ -422,6 +424,20 @@ def run_face(name, build, step, dump):
         print(json.dumps(clean(row)), flush=True)
 
 
+def landmark_line(path):
+    """The ``"expression": "landmarks"`` line (``benchmarks/landmarks.py``): the found
+    landmarks against ICT's own 68, when the reference lies beside the head file."""
+    from benchmarks import landmarks
+
+    ref = Path(path).with_name(landmarks.REFERENCE_NAME)
+    if not ref.exists():
+        log(f"{ref} not found: no landmarks line")
+        return
+    row = landmarks.measure(path, ref)
+    row["face"] = "ict" if Path(path) == landmarks.DEFAULT_NPZ else Path(path).stem
+    print(json.dumps(clean(row)), flush=True)
+
+
 def main(argv):
     from sample_scenes.lib import ict
 
@@ -444,6 +460,7 @@ def main(argv):
                     log(f"{path} not found: the ICT face is skipped")
                     continue
                 run_face(ict_name, lambda: build_ict(path), args.step, args.dump)
+                landmark_line(path)
             elif name == "procedural":
                 run_face("procedural", build_procedural, args.step, args.dump)
             else:
