@@ -824,9 +824,10 @@ def evaluate_steps(plan, skin, contraction, strength, out):
     eps = system.compression(plan, pulled)
     t["compression"] = pc() - c
     c = pc()
-    w = plan.row_amp * system.smooth_rows(plan, zhang.anisotropic(eps))
-    height = plan.height_sum.sum(w) * _F(strength)
-    t["anisotropic+heights"] = pc() - c
+    a = system.smooth_rows(plan, zhang.anisotropic(eps))
+    w = plan.row_amp * a
+    height = system.blend(plan, a, w, plan.height_sum.sum(w)) * _F(strength)
+    t["anisotropic+heights"] = pc() - c  # with the blend of folds that meet
     c = pc()
     o = plan.output  # the output stage (core.combine) for this plan alone
     c = pc()
