@@ -70,6 +70,18 @@ def frame(m):
     return c, a, b, np.cross(a, b), ra, rb
 
 
+def half_cycle(a, b, sector, n_wrinkles):
+    """Eq. 6 for a sphincter with semi-axes ``a``, ``b`` (3,): ``u = Theta |b| / n_w``, the
+    sector's arc ``2 Theta |b|`` on the ring over ``2 n_w`` (``b`` taken perpendicular to
+    ``a``, as :func:`frame` does)."""
+    a = np.asarray(a, np.float64)
+    b = np.asarray(b, np.float64)
+    na = np.linalg.norm(a)
+    if na > _EPS:
+        b = b - np.dot(b, a) / (na * na) * a
+    return float(sector * np.linalg.norm(b) / max(n_wrinkles, 1e-6))
+
+
 def problem(m):
     """Why the sanitized sphincter ``m`` has no effect, or None."""
     if m.attachment.shape[0] < 1 or m.insertion.shape[0] < 2:
@@ -132,7 +144,7 @@ def field(rest, m):
     region = np.flatnonzero(inside & (rho >= start) & (rho <= reach) & (np.abs(theta) <= sector))
     th, r = theta[region], rho[region]
     l = th * rb
-    u = float(sector * rb / max(m.n_wrinkles, 1e-6))
+    u = half_cycle(m.insertion[0] - c, m.insertion[1] - c, sector, m.n_wrinkles)
     env = zhang.attenuation(np.abs(th), min(m.spread_c, sector), sector)
     env = env * band(r, start, reach, m.fade_ends) * slab[region]
     phase = l + sector * rb

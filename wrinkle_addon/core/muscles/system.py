@@ -138,7 +138,7 @@ BLEND_POWER = 4.0
 _SAME_FOLD = 0.9  # the correlation of two muscles' profiles H(w) above which they are one family
 
 
-def families(fields, n):
+def families(fields):
     """One family index per muscle: muscles whose folds are one set of folds where their
     regions overlap (their profiles H(w) correlate above ``_SAME_FOLD`` and their directions
     of contraction agree there) are one family, as the Frontalis sheets that share one phase.
@@ -151,36 +151,26 @@ def families(fields, n):
             i = parent[i]
         return i
 
-    profiles = []
+    # per muscle: its region vertices where the envelope is not ~0, their profile H(w) and
+    # their direction of contraction
+    kept = []
     for f in fields:
-        prof = np.full(n, np.nan)
-        if f.envelope is not None and len(f.region):
-            ok = np.abs(f.envelope) > 1e-3
-            prof[f.region[ok]] = f.amplitude[ok] / f.envelope[ok]
-        profiles.append(prof)
+        ok = np.abs(f.envelope) > 1e-3 if f.envelope is not None and len(f.region) else np.zeros(0, bool)
+        kept.append((f.region[ok], f.amplitude[ok] / f.envelope[ok], f.contraction_dir[ok]))
     for i in range(len(fields)):
         for j in range(i + 1, len(fields)):
-            shared = np.isfinite(profiles[i]) & np.isfinite(profiles[j])
-            if shared.sum() < 8:
+            _v, ia, ib = np.intersect1d(kept[i][0], kept[j][0], assume_unique=True, return_indices=True)
+            if len(ia) < 8:
                 continue
-            a, b = profiles[i][shared], profiles[j][shared]
+            a, b = kept[i][1][ia], kept[j][1][ib]
             if a.std() < 1e-12 or b.std() < 1e-12 or np.corrcoef(a, b)[0, 1] < _SAME_FOLD:
                 continue
-            da = _directions(fields[i], shared, n)
-            db = _directions(fields[j], shared, n)
-            if np.mean(np.abs(np.einsum("ij,ij->i", da, db))) < _SAME_FOLD:
+            if np.mean(np.abs(np.einsum("ij,ij->i", kept[i][2][ia], kept[j][2][ib]))) < _SAME_FOLD:
                 continue
             parent[root(j)] = root(i)
     roots = [root(i) for i in range(len(fields))]
     _u, fam = np.unique(roots, return_inverse=True)
     return fam.astype(np.int64)
-
-
-def _directions(f, shared, n):
-    """The direction of contraction of field ``f`` at the vertices ``shared`` (mask (n,))."""
-    at = np.full(n, -1, np.int64)
-    at[f.region] = np.arange(len(f.region))
-    return f.contraction_dir[at[shared]]
 
 
 def _blend_plan(row_vert, row_family, row_env, keys):
@@ -296,7 +286,7 @@ def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
                               for f in fields] + [np.zeros(0)])
     if keep_out is not None:
         row_env = row_env * keep_out[row_vert]
-    row_family = families(fields, n)[row_muscle] if n_m else np.zeros(0, np.int64)
+    row_family = families(fields)[row_muscle] if n_m else np.zeros(0, np.int64)
     keep = row_amp != 0.0
     cells, cell_w, n_cells, cell_total = _smoothing(fields, keep)
     row_vert, row_muscle, row_amp, row_cdir = row_vert[keep], row_muscle[keep], row_amp[keep], row_cdir[keep]

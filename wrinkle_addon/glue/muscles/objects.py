@@ -17,6 +17,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
+from ...core.muscles import sphincter
 from ...core.muscles.waters import LINEAR, SHEET, SPHINCTER, Muscle
 
 COLLECTION_NAME = "Wrinkle Muscles"
@@ -220,10 +221,8 @@ def _size_defaults(s, kind, pts, reach, depth_factor, given=()):
     for key, value in sizes.items():
         if key not in given:
             setattr(s, key, value)
-    if kind == "SPHINCTER":  # the sector's arc on the ring over 2 n_w (core.muscles.sphincter)
-        b = pts[2] - pts[0]
-        a = (pts[1] - pts[0]).normalized()
-        u = s.angle * (b - b.dot(a) * a).length / max(s.n_wrinkles, 1)
+    if kind == "SPHINCTER":
+        u = sphincter.half_cycle(pts[1] - pts[0], pts[2] - pts[0], s.angle, max(s.n_wrinkles, 1))
     else:
         extent = s.radius if kind == "LINEAR" else s.length * (1.0 + s.back_reach)
         u = (1.0 - s.lambda_w) * extent / (2.0 * max(s.n_wrinkles, 1))
