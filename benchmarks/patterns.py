@@ -103,7 +103,7 @@ def add_tears(face, lm, count):
     """Up to two shedding tears, one under each eye, by the add-on's operator along a curve on
     the skin; each runs its path in 1.5 s and again every 2 s."""
     from sample_scenes import patterns as sample
-    from wrinkle_addon.glue import shedding, tears
+    from wrinkle_addon.glue.patterns import shedding, tears
 
     out = []
     for side in range(count):
@@ -122,7 +122,7 @@ def main(argv=None):
     import frame_update as fu  # bpy, the add-on enabled; its Bench builds and times the face
     from mathutils import Vector
 
-    from wrinkle_addon.core import patterns as core
+    from wrinkle_addon.core.patterns import functions as core
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--verts", type=int, default=50000)

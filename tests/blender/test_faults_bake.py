@@ -24,7 +24,7 @@ import pytest
 from tests.blender import mapscenes, scenes
 from tests.blender.test_curves import add_curve, uv_face
 from wrinkle_addon.glue import bake as bake_glue
-from wrinkle_addon.glue import shedding, tears
+from wrinkle_addon.glue.patterns import shedding, tears
 from wrinkle_addon.glue.bando import fine as fine_glue
 from wrinkle_addon.glue.bando import shading
 

@@ -11,7 +11,7 @@ import pytest
 from mathutils.bvhtree import BVHTree
 
 from tests.blender import scenes
-from wrinkle_addon.glue import shedding, tears
+from wrinkle_addon.glue.patterns import shedding, tears
 
 R = 0.1  # the sphere "face"
 DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ict_head.npz"

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from tests.blender import scenes
-from wrinkle_addon.core import tears as core
-from wrinkle_addon.glue import tears
+from wrinkle_addon.core.patterns import tears as core
+from wrinkle_addon.glue.patterns import tears
 
 MID = scenes.HEIGHT / 2
 

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from tests.core.meshes import grid, squash_vertical
-from wrinkle_addon.core import mls, raster, tears
+from wrinkle_addon.core import raster
+from wrinkle_addon.core.patterns import mls, tears
 from wrinkle_addon.core.bando import curves, field, fine, mapped
 from wrinkle_addon.core.muscles import system
 from wrinkle_addon.core.muscles.waters import LINEAR, SHEET, Muscle

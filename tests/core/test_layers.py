@@ -15,7 +15,7 @@ ALLOWED = {
     "ui": {"core", "glue"},
     "sources": {"core", "glue", "props", "ui"},
 }
-METHODS = {"muscles", "maps", "bando"}  # core sub-packages, one per method: independent of each other
+METHODS = {"muscles", "maps", "bando", "patterns"}  # core sub-packages, one per method: independent of each other
 
 
 def _imports(path):

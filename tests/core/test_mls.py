@@ -4,7 +4,7 @@ roughness and reveal."""
 import numpy as np
 import pytest
 
-from wrinkle_addon.core import mls, tears
+from wrinkle_addon.core.patterns import mls, tears
 
 RNG = np.random.default_rng(11)
 

@@ -4,7 +4,7 @@ formula, the damping at the border, the time periodicity and the valid vertices.
 import numpy as np
 import pytest
 
-from wrinkle_addon.core import patterns
+from wrinkle_addon.core.patterns import functions as patterns
 
 RNG = np.random.default_rng(7)
 X, Y = RNG.uniform(-2.0, 2.0, 500), RNG.uniform(-2.0, 2.0, 500)

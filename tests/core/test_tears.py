@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from wrinkle_addon.core import tears
+from wrinkle_addon.core.patterns import tears
 
 
 def _surface(tau, alpha=1.0, beta=0.6, lam=0.5, n=201):

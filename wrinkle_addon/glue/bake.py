@@ -23,7 +23,8 @@ import zlib
 
 import bpy
 
-from . import registry, shedding, stage
+from . import registry, stage
+from .patterns import shedding
 from .errors import WrinkleError
 
 BAKE_SUFFIX = " Baked"

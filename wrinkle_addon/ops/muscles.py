@@ -24,7 +24,7 @@ from mathutils import Vector
 from ..core.muscles import landmark_finder, presets
 from ..glue import drivers, faces
 from ..glue import frame as pipeline
-from ..glue import patterns as pattern_layers
+from ..glue.patterns import layers as pattern_layers
 from ..glue.bando import curves as bando_curves
 from ..glue.errors import WrinkleError
 from ..glue.muscles import landmarks, refine

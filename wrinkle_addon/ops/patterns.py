@@ -5,10 +5,11 @@ vertices), remove, duplicate, move, mirror and apply as a shape key."""
 import bpy
 from bpy.props import EnumProperty, FloatProperty, IntProperty
 
-from ..core.patterns import KINDS
-from ..glue import faces, shedding, tears
+from ..core.patterns.functions import KINDS
+from ..glue import faces
+from ..glue.patterns import shedding, tears
 from ..glue import frame as pipeline
-from ..glue import patterns as glue
+from ..glue.patterns import layers as glue
 from ..glue.progress import Progress
 from ..glue.registry import MeshArrays
 from ..glue.surface import Surface

@@ -14,7 +14,7 @@ from bpy.props import (
     StringProperty,
 )
 
-from ..core.patterns import KINDS
+from ..core.patterns.functions import KINDS
 from .common import is_muscle, refresh
 
 
@@ -43,7 +43,7 @@ class PatternLayer(bpy.types.PropertyGroup):
     border: FloatProperty(
         name="Border", description="Width of the smooth fall-off to zero at the region's border, in "
         "units of the frame's size", default=0.5, min=0.0, soft_max=5.0, update=refresh)
-    # the parameters alpha, beta, gamma under the names of each pattern (core.patterns.PATTERNS)
+    # the parameters alpha, beta, gamma under the names of each pattern (core.patterns.functions.PATTERNS)
     depth: FloatProperty(
         name="Depth", description="How deep the pattern is, in units of the frame's size (negative: "
         "furrows, positive: ridges; for a dimple, positive is a dip)", default=-0.12, soft_min=-1.0,

@@ -6,10 +6,11 @@ the skin normal with every other source, from ``core.patterns``."""
 import bpy
 import numpy as np
 
-from ..core import combine, patterns
+from ..core import combine
+from ..core.patterns import functions as patterns
 from ..glue import frame as frame_stage
 from ..glue import meshio
-from ..glue import patterns as glue
+from ..glue.patterns import layers as glue
 from ..glue.muscles import landmarks
 from ..glue.registry import WrinkleSource
 from ..props.patterns import PatternStack

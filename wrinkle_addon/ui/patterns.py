@@ -3,8 +3,8 @@
 
 import bpy
 
-from ..core import patterns
-from ..glue import patterns as glue
+from ..core.patterns import functions as patterns
+from ..glue.patterns import layers as glue
 
 
 class WRINKLE_UL_patterns(bpy.types.UIList):

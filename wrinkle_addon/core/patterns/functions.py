@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .mesh import edge_shrinkage, smoothstep
+from ..mesh import edge_shrinkage, smoothstep
 
 _EPS = 1e-12
 

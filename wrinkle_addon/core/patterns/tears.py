@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from . import checks
+from .. import checks
 
 T0 = 1.2  # t at the drop's birth: t + cos(u) >= 0.2 > 0
 OUTLINE_TIP = 0.2  # a shedding tear's tip keeps this fraction of its width

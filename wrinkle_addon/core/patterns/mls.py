@@ -22,7 +22,7 @@ from itertools import combinations_with_replacement
 
 import numpy as np
 
-from . import checks
+from .. import checks
 
 _CHUNK = 1 << 22  # query x data pairs (or query x monomial pairs) per chunk
 MAX_DEGREE = 8

@@ -1,10 +1,10 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Shedding tears ("Pattern functions and tears", §4.2) as objects: a tear that runs down a
-path on the skin, built once in NumPy (``core.tears.Tear``) and then left to Blender:
+path on the skin, built once in NumPy (``core.patterns.tears.Tear``) and then left to Blender:
 
 - one Geometry Nodes group binds it to the skin, so it follows the face as it deforms: each
   vertex keeps the skin triangle under it, its barycentric weights there and its height
-  along the triangle's normal (``core.tears.bind``), and is put back on that triangle of the
+  along the triangle's normal (``core.patterns.tears.bind``), and is put back on that triangle of the
   face's evaluated mesh every frame (Surface Deform refuses faces with concave polygons,
   which real meshes have);
 - the same group reveals it with the scene time, ``h = s + c t`` (step five): over
@@ -18,14 +18,14 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from ..core import mesh as core_mesh
-from ..core import tears
-from . import meshio, surface
-from .bando import curves as bando_curves
-from .faces import collections_for
-from .nodes import Builder, float_inputs
-from .nodes import ensure_group as ensure_group_of
-from .patterns import face_unit
+from ...core import mesh as core_mesh
+from ...core.patterns import tears
+from .. import meshio, surface
+from ..bando import curves as bando_curves
+from ..faces import collections_for
+from ..nodes import Builder, float_inputs
+from ..nodes import ensure_group as ensure_group_of
+from .layers import face_unit
 from .tears import TearError, get_input, set_input, water_material
 
 GROUP_NAME = "Shedding Tear"
@@ -112,7 +112,7 @@ def _named(b, name, data_type):
 
 def _bound(b, geometry, skin_object, skin_count):
     """``geometry`` with each point put back on its skin triangle of the face as it is now
-    (``core.tears.bound``); unchanged when the face's vertex count is not ``skin_count``."""
+    (``core.patterns.tears.bound``); unchanged when the face's vertex count is not ``skin_count``."""
     info = b.node("GeometryNodeObjectInfo", transform_space="RELATIVE")
     b.link(skin_object, info.inputs["Object"])
     corners = []
@@ -236,7 +236,7 @@ class Skin:
 
 # --------------------------------------------------------------------------- the tear
 def build(skin, path, half_width, thickness, gap, roughness=0.3, seed=0, unit=1.0, head=None):
-    """The tear (``core.tears.Tear``, face space) along ``path`` (k, 3, face space) on ``skin``
+    """The tear (``core.patterns.tears.Tear``, face space) along ``path`` (k, 3, face space) on ``skin``
     (:class:`Skin`): the path snapped to the skin, subdivided, widened into the base strip and
     snapped again; with the skin triangle (k n,) under each base point.  ``unit``: scene units
     per face unit, for the messages.  Raises TearError for a path off the skin or of one

@@ -9,10 +9,10 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
-from ..core import patterns
-from . import meshio, surface
-from .errors import WrinkleError
-from .muscles import landmarks
+from ...core.patterns import functions as patterns
+from .. import meshio, surface
+from ..errors import WrinkleError
+from ..muscles import landmarks
 
 COLLECTION_NAME = "Wrinkle Pattern Frames"
 # Per type: the frame's size (its scale: one unit of the pattern), the region's radius and
@@ -91,7 +91,7 @@ def vertex_group_weights(face, name):
 
 
 def build_layer(face, mesh, lay):
-    """The static data (``core.patterns.Layer``) of the layer settings ``lay`` on the face's
+    """The static data (``core.patterns.functions.Layer``) of the layer settings ``lay`` on the face's
     rest mesh ``mesh``.  Raises PatternError, also for a setting the file holds that this
     version does not know (:func:`setting`)."""
     kind, region, _drive = setting(lay, "kind"), setting(lay, "region"), setting(lay, "drive")
@@ -126,7 +126,7 @@ def build_layer(face, mesh, lay):
 def refine_need(face, factor, scene):
     """The pattern layers' refinement rule for ``glue.muscles.refine.refine``: a callable
     ``(rest, edges) -> indices`` of the edges in a layer's region longer than its
-    ``core.patterns.half_cycle`` over ``factor``, or None when the face has no layer to
+    ``core.patterns.functions.half_cycle`` over ``factor``, or None when the face has no layer to
     show.  Layers that cannot be built (no frame, an empty group) ask for nothing."""
     live = [lay for lay in stack(face).layers if lay.show_viewport or lay.show_render]
     if not live:

@@ -1,17 +1,17 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Dripping tears ("Pattern functions and tears", §4.1) as objects: the teardrop surface of
-``core.tears`` built by a Geometry Nodes group from the scene time, so a drop animates, falls,
+``core.patterns.tears`` built by a Geometry Nodes group from the scene time, so a drop animates, falls,
 repeats and renders with no Python (and on a farm with no add-on), in a water material."""
 
 import math
 
 import bpy
 
-from ..core import tears
-from .errors import WrinkleError
-from .faces import collections_for
-from .nodes import Builder, float_inputs, principled, use_nodes
-from .nodes import ensure_group as ensure_group_of
+from ...core.patterns import tears
+from ..errors import WrinkleError
+from ..faces import collections_for
+from ..nodes import Builder, float_inputs, principled, use_nodes
+from ..nodes import ensure_group as ensure_group_of
 
 GROUP_NAME = "Teardrop"
 MODIFIER_NAME = "Teardrop"

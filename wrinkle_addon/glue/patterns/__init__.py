@@ -1,0 +1,1 @@
+"""Glue of the pattern functions and tears: pattern layers (layers), the dripping tear (tears), shedding tears (shedding)."""
