@@ -24,9 +24,9 @@ import pytest
 from tests.blender import mapscenes, scenes
 from tests.blender.test_curves import add_curve, uv_face
 from wrinkle_addon.glue import bake as bake_glue
-from wrinkle_addon.glue.patterns import shedding, tears
 from wrinkle_addon.glue.bando import fine as fine_glue
 from wrinkle_addon.glue.bando import shading
+from wrinkle_addon.glue.patterns import shedding, tears
 
 
 def _baked_face(tmp_path, name="Face"):

@@ -15,7 +15,8 @@ ALLOWED = {
     "ui": {"core", "glue"},
     "sources": {"core", "glue", "props", "ui"},
 }
-METHODS = {"muscles", "maps", "bando", "patterns"}  # core sub-packages, one per method: independent of each other
+# core sub-packages, one per method: independent of each other
+METHODS = {"muscles", "maps", "bando", "patterns"}
 
 
 def _imports(path):

@@ -24,8 +24,8 @@ import zlib
 import bpy
 
 from . import registry, stage
-from .patterns import shedding
 from .errors import WrinkleError
+from .patterns import shedding
 
 BAKE_SUFFIX = " Baked"
 MARKER = "ewrinkles_stand_in_of"  # on the stand-in: the face whose bake made it

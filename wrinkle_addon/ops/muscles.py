@@ -24,11 +24,11 @@ from mathutils import Vector
 from ..core.muscles import landmark_finder, presets
 from ..glue import drivers, faces
 from ..glue import frame as pipeline
-from ..glue.patterns import layers as pattern_layers
 from ..glue.bando import curves as bando_curves
 from ..glue.errors import WrinkleError
 from ..glue.muscles import landmarks, refine
 from ..glue.muscles import objects as muscle_objects
+from ..glue.patterns import layers as pattern_layers
 from ..glue.progress import Progress
 from .common import face_poll, guarded, select_only
 

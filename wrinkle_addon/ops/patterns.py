@@ -7,9 +7,9 @@ from bpy.props import EnumProperty, FloatProperty, IntProperty
 
 from ..core.patterns.functions import KINDS
 from ..glue import faces
-from ..glue.patterns import shedding, tears
 from ..glue import frame as pipeline
 from ..glue.patterns import layers as glue
+from ..glue.patterns import shedding, tears
 from ..glue.progress import Progress
 from ..glue.registry import MeshArrays
 from ..glue.surface import Surface

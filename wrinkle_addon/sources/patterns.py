@@ -10,8 +10,8 @@ from ..core import combine
 from ..core.patterns import functions as patterns
 from ..glue import frame as frame_stage
 from ..glue import meshio
-from ..glue.patterns import layers as glue
 from ..glue.muscles import landmarks
+from ..glue.patterns import layers as glue
 from ..glue.registry import WrinkleSource
 from ..props.patterns import PatternStack
 from ..ui import patterns as patterns_ui
