@@ -12,7 +12,12 @@ Prints one JSON line per (face, expression) on stdout, e.g.::
 with the keys that apply to the expression (progress and details go to stderr), and for a
 head with ICT's topology whose reference lies beside it, a line with ``"expression":
 "landmarks"`` (``benchmarks/landmarks.py``: the found landmarks against ICT's own 68).  How each
-number is measured, and its goal, is in ``benchmarks/realism_measures.py``.
+number is measured, and its goal, is in ``benchmarks/realism_measures.py``.  For the ICT head
+(or ``--npz``) it then renders (``--no-renders`` leaves this out): ``"expression": "map_anger"``
+and ``"map_surprise"`` with ``map_geometry_ratio`` (``benchmarks/map_look.py``: the wrinkle
+maps against the geometric wrinkles of the same pose), and for the sample head ``"expression":
+"tear"`` with ``tear_luminance_ratio`` and ``tear_highlight_ratio`` per engine
+(``benchmarks/tear_look.py``).
 
 The faces, rigged as the sample scenes rig them (``sample_scenes/lib/rigging.py``):
 
@@ -438,6 +443,23 @@ def landmark_line(path):
     print(json.dumps(clean(row)), flush=True)
 
 
+def look_lines(path):
+    """The rendered lines: how the wrinkle maps look against the geometry
+    (``benchmarks/map_look.py``: ``map_anger``, ``map_surprise``) and how the shedding tear
+    reads as water in Cycles and EEVEE (``benchmarks/tear_look.py``: ``tear``), each on a
+    fresh empty scene."""
+    from benchmarks import map_look, tear_look
+
+    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    for row in map_look.lines(path):
+        print(json.dumps(clean(row)), flush=True)
+    if Path(path) != Path(map_look.DEFAULT_NPZ):
+        return  # the tear's scene is the sample head's (sample_scenes/patterns.py)
+    for engine in ("CYCLES", "EEVEE"):
+        bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+        print(json.dumps(clean(tear_look.measure(engine))), flush=True)
+
+
 def main(argv):
     from sample_scenes.lib import ict
 
@@ -446,6 +468,8 @@ def main(argv):
     ap.add_argument("--npz", default=None, help="a head file with the ICT layout (default: the ICT head)")
     ap.add_argument("--step", type=float, default=0.5, help="grid step in mm")
     ap.add_argument("--dump", default=None, help="a folder to save the resampled grids in (.npz)")
+    ap.add_argument("--no-renders", action="store_true",
+                    help="leave out the rendered lines (the maps against the geometry, the tear)")
     args = ap.parse_args(argv)
     faces = [f.strip() for f in args.faces.split(",") if f.strip()]
     path = Path(args.npz) if args.npz else ict.DEFAULT_PATH
@@ -461,6 +485,8 @@ def main(argv):
                     continue
                 run_face(ict_name, lambda: build_ict(path), args.step, args.dump)
                 landmark_line(path)
+                if not args.no_renders:
+                    look_lines(path)
             elif name == "procedural":
                 run_face("procedural", build_procedural, args.step, args.dump)
             else:

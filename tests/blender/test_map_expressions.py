@@ -73,6 +73,32 @@ def test_surprise_plus_anger_smooths_the_forehead(render_small, tmp_path):
     assert dev_both[:half].max() < 0.3 * dev_surprise[:half].max() + 1e-3
 
 
+def test_zone_weights_are_what_the_weights_group_computes():
+    """material.zone_weights: per map, the table's weights over the expressions' driven
+    values, clamped, with the zones' Response and Strength; an expression on map 2 lights
+    map 2 only."""
+    rng = np.random.default_rng(3)
+    face, *_ = _forehead_face(rng)
+    assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
+    assert bpy.ops.wrinkle.load_map_preset(preset="TABLE_1_1") == {"FINISHED"}
+    maps = face.ewrinkles_face.maps
+    maps.expressions["Surprise"].map_index = 2
+    maps.zone_power[2] = 2.0
+    maps.zone_strength[0] = 1.5
+    keys = face.data.shape_keys.key_blocks
+    keys["browInnerUp_L"].value, keys["browDown_L"].value = 0.7, 0.5
+    bpy.context.view_layer.update()
+    got = wrinklemaps.zone_weights(face)
+    names = [ex.name for ex in maps.expressions]
+    table = wrinklemaps.table(maps)
+    anger = 0.5 * table[names.index("Anger")]
+    surprise = 0.7 * table[names.index("Surprise")]
+    power, strength = np.array(maps.zone_power), np.array(maps.zone_strength)
+    np.testing.assert_allclose(got[0], strength * np.clip(anger, 0, 1) ** power, atol=1e-6)
+    np.testing.assert_allclose(got[1], strength * np.clip(surprise, 0, 1) ** power, atol=1e-6)
+    assert got[1][2] == pytest.approx(0.56 ** 2) and got[0][0] == 0.0  # anger's forehead: < 0, clamped
+
+
 @pytest.mark.render
 def test_uvs_outside_the_0_1_square_get_no_wrinkles(render_small, tmp_path):
     """The masks cover the 0-1 UV square: UVs in another tile (the ICT head's back of the

@@ -215,3 +215,22 @@ def test_crossing_muscles_are_two_families():
     rest, *_ = plane()
     fields = [muscle_field(rest, m) for m in crossing()]
     assert system.families(fields).tolist() == [0, 1]
+
+
+def test_formed_wrinkles_of_crossing_muscles_blend_like_the_face():
+    """A wrinkle map's fully formed wrinkles (A = 1) of two crossing muscles are joined as
+    the face joins them: blended where the families meet, never the pile of their sum, and
+    each muscle's own folds where it is alone.  One muscle alone is formed_heights."""
+    rest, edges, tris = plane()
+    mx, mz = crossing()
+    plan = system.build_plan(rest, edges, tris, [mx, mz])
+    alone = [system.formed_heights(plan, i) for i in (0, 1)]
+    together = system.formed_together(plan, [0, 1])
+    summed = alone[0] + alone[1]
+    assert summed.min() < 1.3 * min(a.min() for a in alone)  # the sum piles up: the test can fail
+    assert together.min() >= min(a.min() for a in alone) - 1e-7
+    assert together.max() <= max(a.max() for a in alone) + 1e-7
+    only_x = (alone[1] == 0.0) & (alone[0] != 0.0)
+    np.testing.assert_array_equal(together[only_x], alone[0][only_x])
+    np.testing.assert_allclose(system.formed_together(plan, [1]), alone[1], atol=1e-7)
+    np.testing.assert_array_equal(system.formed_together(plan, [0, 1], strength=0.0), 0.0)

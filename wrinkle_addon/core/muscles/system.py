@@ -447,6 +447,24 @@ def heights(plan, skin, contraction, strength=1.0):
     return out
 
 
+def formed_together(plan, muscles, strength=1.0):
+    """The fully formed wrinkles of the muscles ``muscles`` (indices) together, each with
+    ``A(eps) = 1`` and the others at 0, per vertex (N,) float32: summed where the folds are
+    one family's, blended where folds of two families meet (:func:`blend`), exactly as
+    :func:`heights` joins them on the face.  A sum of :func:`formed_heights` piles crossing
+    folds into knots (the Corrugator's, the Procerus' and the Nasalis' at the root of the
+    nose) that the geometric wrinkles never show."""
+    out = np.zeros(plan.n_verts, dtype=_F)
+    if len(plan.verts) == 0:
+        return out
+    a = np.isin(plan.row_muscle, np.asarray(muscles, np.int64)).astype(_F)
+    w = plan.row_amp * a
+    local = np.zeros(len(plan.verts), dtype=_F)
+    local[plan.height_sum.keys] = blend(plan, a, w, plan.height_sum.sum(w))
+    out[plan.verts] = np.nan_to_num(local, nan=0.0, posinf=0.0, neginf=0.0) * _F(np.nan_to_num(strength))
+    return out
+
+
 def formed_heights(plan, muscle, strength=1.0):
     """The fully formed wrinkle of one muscle, ``H(w) At`` of eq. 4 with ``A(eps) = 1``,
     per vertex (N,) float32: its wrinkles as they are once the skin is compressed enough,

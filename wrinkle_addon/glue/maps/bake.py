@@ -27,8 +27,9 @@ from ..muscles import objects as muscle_objects
 
 MODES = (
     ("MUSCLES", "Each Muscle Contracted",
-     "Every muscle at full contraction, one at a time, on the rest face; the wrinkle heights "
-     "are summed. The map shows every wrinkle the muscles can make"),
+     "Every muscle's wrinkles fully formed, on the rest face, joined as the face joins them: "
+     "a catalogue of every wrinkle the muscles can make, each at full depth over its whole "
+     "region, stronger than any one pose (bake a pose to match its geometric wrinkles)"),
     ("POSE", "Current Pose",
      "The wrinkles of the current frame: the deformed skin (shape keys, bones) and the "
      "muscles' current contractions, with slopes measured on the posed skin, so the map "
@@ -84,16 +85,20 @@ def bake_height(face, mode, muscles=None, surface=None):
     the face's local units; 0 outside the wrinkling regions.
 
     ``mode`` "MUSCLES": each muscle's fully formed wrinkle, ``H(w) At`` with ``A(eps) = 1``
-    (``core.muscles.system.formed_heights``): a wrinkle map holds the expression's wrinkles at full
-    strength, and its animated zone weight plays the part of ``A(eps)``.  (Baking them from
+    (``core.muscles.system.formed_together``): a wrinkle map holds the expression's
+    wrinkles at full strength, and its animated zone weight plays the part of ``A(eps)``.  (Baking them from
     each muscle's own pull at full contraction gave ``A`` of only 0.15-0.3: the Frontalis
     pulls 8 %, while the ICT head's shape keys compress the forehead by up to 40 %.)  The
-    heights are summed where they belong: each vertex keeps only the wrinkles of the
-    muscles of its mask zone (:func:`bake_layers`).  "POSE": the current frame, the
-    deformed skin (shape keys, bones) and the current contractions, exactly as the
-    geometric wrinkles are evaluated (``A(eps)`` included).  ``muscles``: the muscle
-    objects, by default all the face's muscles.  The face's Strength scales both.  Raises
-    BakeError.
+    muscles of one zone are joined as the face joins them, summed where their folds are one
+    family's and blended where folds of two families cross, and each vertex keeps only the
+    wrinkles of the muscles of its mask zone (:func:`bake_layers`).  Such a map holds every
+    wrinkle the muscles can make, each at full depth over its whole region: stronger than
+    any one pose, whose compression forms them only in part.  A map meant to look like an
+    expression's geometric wrinkles is baked from that expression's pose ("POSE").
+    "POSE": the current frame, the deformed skin (shape keys, bones) and the current
+    contractions, exactly as the geometric wrinkles are evaluated (``A(eps)`` included).
+    ``muscles``: the muscle objects, by default all the face's muscles.  The face's
+    Strength scales both.  Raises BakeError.
     """
     fields, layer, _zone_of_layer = bake_layers(face, mode, muscles, surface)
     return np.take_along_axis(fields, layer[:, None], axis=1)[:, 0]
@@ -145,10 +150,10 @@ def _layers(face, mode, muscles=None, surface=None):
     present, layer = np.unique(zone, return_inverse=True)
     layer = layer.ravel()
     fields = np.zeros((len(rest), len(present)), np.float32)
-    for i, ob in enumerate(muscles):
-        keep = np.isin(present, _zones_of(ob))
-        if keep.any():
-            fields[:, keep] += system.formed_heights(plan, i, strength)[:, None]
+    for k, z in enumerate(present):  # each zone's muscles together: crossing folds blended
+        own = [i for i, ob in enumerate(muscles) if z in _zones_of(ob)]
+        if own:
+            fields[:, k] = system.formed_together(plan, own, strength)
     fields[np.arange(len(rest)), layer] += extra  # the other sources' wrinkles, in each vertex's zone
     return fields, layer, present, rest
 

@@ -67,6 +67,33 @@ def table(maps):
     return np.array([list(ex.weights) for ex in maps.expressions], np.float32).reshape(-1, N_ZONES)
 
 
+def zone_weights(face):
+    """The zone weights (K, 8) of each of the face's K wrinkle maps at the evaluated frame,
+    as its weights group computes them (``nodegroups.build_weights``): each expression's
+    value as the group holds it (driven or Manual), summed with the table's weights of the
+    expressions on that map, the tension added on map 1, clamped, then the zones' Response
+    and Strength.  Zeros when the maps are not set up."""
+    maps = face.ewrinkles_face.maps
+    ng = maps.weights_group
+    k = n_maps(maps)
+    if ng is None:
+        return np.zeros((k, N_ZONES), np.float32)
+
+    def value(name):
+        node = ng.nodes.get(name)
+        return float(node.outputs[0].default_value) if node is not None else 0.0
+
+    values = np.array([value(mapgroup.expr_node(e)) for e in range(len(maps.expressions))], np.float32)
+    tension = np.array([value(mapgroup.tension_node(z)) for z in range(N_ZONES)], np.float32)
+    on = np.array([ex.map_index - 1 for ex in maps.expressions], np.int64)
+    rows = table(maps)
+    out = np.zeros((k, N_ZONES), np.float32)
+    for m in range(k):
+        sums = wm.expression_sums(values[on == m], rows[on == m]) + (tension if m == 0 else 0.0)
+        out[m] = wm.zone_response(sums, np.asarray(maps.zone_strength), np.asarray(maps.zone_power))
+    return out
+
+
 # ---------------------------------------------------------------------------------------
 # checks
 
