@@ -1,8 +1,9 @@
-"""Close-ups of the pattern layers and the tears over time, four Cycles frames each: crow's
-feet and dimples as the smile comes, on the procedural head and on the scanned ICT head
-(with ``mouthSmile`` and ``eyeSquint``); frown furrows as the brows lower (``browDown``);
-and a shedding tear running down the cheek (halfway down on frame 20).  The scenes are
-``sample_scenes/patterns.py``'s; each close-up looks at the face straight from the front.
+"""Close-ups of the pattern layers and the tears over time, four Cycles frames each: one per
+pattern type (crow's feet, the smile's cheek fold and dimple as the smile comes, frown lines
+as the brows lower) on the scanned ICT head (``mouthSmile``, ``eyeSquint``, ``browDown``) and
+on the procedural head (its muscles), and a shedding tear running down the cheek (halfway
+down on frame 20).  The scenes are ``sample_scenes/patterns.py``'s; each close-up looks at
+the face straight from the front, sized from the face's landmarks.
 
 The demo calls :func:`render`, which writes one strip per case and
 ``out/pattern_frames.png`` (a row per case).
@@ -20,16 +21,23 @@ from sample_scenes.lib import scene_setup
 SMILE_FRAMES = (1, 8, 14, 20)
 FROWN_FRAMES = (22, 28, 34, 40)
 TEAR_FRAMES = (6, 12, 20, 28)
+# per pattern close-up: the frames it is seen on
+PATTERN_SPOTS = (("crows_feet", SMILE_FRAMES), ("cheek", SMILE_FRAMES), ("dimple", SMILE_FRAMES),
+                 ("frown", FROWN_FRAMES))
 
 
 def _spots(lm):
     """Where each close-up looks (face space) and how wide it sees (face units)."""
     eye, mouth, g = (np.asarray(lm[k], float) for k in ("eye_L", "mouth_corner_L", "glabella"))
     d = eye[2] - mouth[2]
+    e = 2.0 * abs(eye[0] - g[0])  # the distance between the eyes
     at = patterns.places(lm)
     return {
+        "crows_feet": (at["EYE_CORNER"] + np.array([0.05 * e, 0.0, 0.0]), 0.6 * e),
+        "cheek": (at["CHEEK"] + np.array([-0.05 * e, 0.0, 0.0]), 0.9 * e),
+        "dimple": (at["DIMPLE"] + np.array([-0.1 * e, 0.0, 0.04 * e]), 0.6 * e),
+        "frown": (at["FROWN"], 0.6 * e),
         "smile": (0.5 * (at["EYE_CORNER"] + at["DIMPLE"]), 1.25 * d),
-        "frown": (np.array([g[0], g[1], 0.5 * (g[2] + eye[2])]), 0.9 * d),
         "tear": (0.5 * (eye + mouth) + np.array([0.15 * d, 0.0, 0.0]), 1.2 * d),
     }
 
@@ -46,25 +54,32 @@ def _close_up(scene, face, centre, width):
 
 
 def cases():
-    """(name, builder, close-up, frames) for each case; the ICT ones when the file exists."""
-    out = [("smile_procedural", patterns.build_procedural, "smile", SMILE_FRAMES)]
+    """(name, builder, close-up, frames) for each case: every pattern type on the ICT head
+    when the file exists and on the procedural head, then the tear (on the ICT head when the
+    file exists)."""
+    heads = [("procedural", patterns.build_procedural)]
     if patterns.available():
-        out += [("smile_ict", patterns.build_ict, "smile", SMILE_FRAMES),
-                ("frown_ict", patterns.build_ict, "frown", FROWN_FRAMES),
-                ("tear_ict", patterns.build_ict, "tear", TEAR_FRAMES)]
-    else:
-        out += [("frown_procedural", patterns.build_procedural, "frown", FROWN_FRAMES),
-                ("tear_procedural", patterns.build_procedural, "tear", TEAR_FRAMES)]
-    return out
+        heads.insert(0, ("ict", patterns.build_ict))
+    out = [(f"{spot}_{head}", builder, spot, frames) for head, builder in heads
+           for spot, frames in PATTERN_SPOTS]
+    head, builder = heads[0]
+    return out + [(f"tear_{head}", builder, "tear", TEAR_FRAMES)]
 
 
-def render(out, size, samples, log=print, quiet=None):
-    """Render every case's four frames into ``out``; returns the rows of image paths and
-    their captions, for a contact sheet."""
+def render(out, size, samples, log=print, quiet=None, only=None):
+    """Render every case's four frames into ``out`` (or only the cases named in ``only``);
+    returns the rows of image paths and their captions, for a contact sheet.  The pattern
+    close-ups of one head share its scene; the tear's case gets a scene of its own."""
     rows, captions = [], []
+    built = None
     for name, builder, spot, frames in cases():
-        bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
-        face, _shots = builder()
+        if only is not None and name not in only:
+            continue
+        if spot == "tear" or built is None or built[0] is not builder:
+            bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+            face, _shots = builder()
+            built = (None if spot == "tear" else builder, face)
+        face = built[1]
         scene = bpy.context.scene
         scene_setup.setup_cycles(scene, resolution=(size, size), samples=samples)
         centre, width = _spots(patterns.LANDMARKS)[spot]

@@ -3,9 +3,9 @@ dimple on each cheek that come with the smile, and frown furrows that come with 
 brows.  On the scanned ICT head (../shared/data/ict_head.npz, not shipped) the layers are
 driven by its ARKit shape keys (eyeSquint, mouthSmile, browDown); on the procedural head
 (``--head procedural``) by its muscles' contractions.  Only the pattern layers wrinkle the
-face here, so the renders show them alone.  A dripping tear forms at the chin on frame 30
-and is falling on frame 40; a shedding tear starts under the left eye on frame 1 and is
-halfway down the cheek on frame 20.
+face here, so the renders show them alone.  A dripping tear forms under the chin, where a
+tear that ran down the face leaves it, on frame 30 and is falling on frame 40; a shedding
+tear starts under the left eye on frame 1 and is halfway down the cheek on frame 20.
 
 Run alone to save a .blend: ``python sample_scenes/patterns.py out/patterns.blend``.
 """
@@ -35,30 +35,40 @@ def available():
 
 def places(lm):
     """Where the layers go, in the face's space, from its landmarks (the character's left;
-    the right side is mirrored): the outer eye corner, the cheek beside the mouth corner, and
-    the root of the nose between the eyes for the frown (its furrows, along the hyperbolas
-    ``x y = const``, run up nearly vertically above it and converge on it)."""
-    eye, brow, mouth, g = (np.asarray(lm[k], float) for k in ("eye_L", "brow_outer_L", "mouth_corner_L",
-                                                               "glabella"))
-    half = abs(mouth[0] - g[0])  # half the mouth's width
-    return {
-        "EYE_CORNER": eye + np.array([0.8 * (brow[0] - eye[0]), 0.0, -0.1 * (brow[2] - eye[2])]),
-        "DIMPLE": mouth + np.array([0.45 * half, 0.0, 0.25 * half]),
-        "FROWN": np.array([g[0], g[1], 0.5 * (g[2] + eye[2])]),
-    }
+    the right side is mirrored): ``core.patterns.functions.places``, the add-on's own: the
+    outer eye corner (the crow's feet's apex), the middle of the smile's cheek fold, the
+    cheek beside the mouth corner for the dimple, and between the brows for the frown."""
+    from wrinkle_addon.core.patterns import functions
+
+    at = functions.places(lm)
+    return {kind: at[kind][0] for kind in ("EYE_CORNER", "CHEEK", "DIMPLE", "FROWN")}
+
+
+def _front_hit(face, point):
+    """The skin straight in front of ``point`` (face space): where a ray along +Y from in
+    front of the face at its x and z meets the skin, or ``point`` when it misses."""
+    from mathutils import Vector
+    from mathutils.bvhtree import BVHTree
+
+    me = face.data
+    bvh = BVHTree.FromPolygons([v.co[:] for v in me.vertices], [p.vertices[:] for p in me.polygons])
+    hit = bvh.ray_cast(Vector((point[0], -10.0, point[2])), Vector((0.0, 1.0, 0.0)))[0]
+    return np.array(hit) if hit is not None else point
 
 
 def add_layers(face, lm, drivers):
-    """The five layers; ``drivers``: type -> (drive, shape key or muscle) for the left side
-    and the middle."""
+    """The seven layers (crow's feet, cheek fold and dimple on both sides, the frown between
+    the brows); ``drivers``: type -> (drive, shape key or muscle) for the left side and the
+    middle (the cheek fold, which has none of its own, comes with the dimple's smile)."""
     from mathutils import Vector
 
     rigging.activate(face)
     for kind, point in places(lm).items():
+        point = _front_hit(face, point)
         bpy.context.scene.cursor.location = face.matrix_world @ Vector(point.tolist())
         assert bpy.ops.wrinkle.add_pattern(kind=kind, where="CURSOR") == {"FINISHED"}
         lay = face.ewrinkles_face.patterns.layers[-1]
-        drive, what = drivers[kind]
+        drive, what = drivers.get(kind, drivers["DIMPLE"])
         lay.drive = drive
         if drive == "SHAPE_KEY":
             lay.drive_shape_key = what
@@ -72,14 +82,45 @@ def add_layers(face, lm, drivers):
                 mirrored.drive_muscle = other or what
 
 
+def drip_point(face, lm):
+    """Where a drop leaves the face (face space): a tear runs down the skin to the chin and
+    hangs where the skin turns under, the front-most point of the chin's midline, below the
+    chin's landmark, whose skin faces down (its world normal at least 60 degrees below the
+    horizon), so it falls free along the world's gravity and not into the skin (one formed
+    under the eye would fall into the cheek)."""
+    chin = np.asarray(lm["chin"], float)
+    d = float(np.asarray(lm["eye_L"], float)[2] - np.asarray(lm["mouth_corner_L"], float)[2])
+    me = face.data
+    co = np.empty(len(me.vertices) * 3, np.float32)
+    me.vertices.foreach_get("co", co)
+    normals = np.empty(len(me.vertices) * 3, np.float32)
+    me.vertices.foreach_get("normal", normals)
+    co, normals = co.reshape(-1, 3).astype(float), normals.reshape(-1, 3).astype(float)
+    world = np.array(face.matrix_world.to_3x3(), float)
+    down = -(normals @ world.T)[:, 2] / np.maximum(np.linalg.norm(normals @ world.T, axis=1), 1e-12)
+    height = co @ world.T[:, 2]  # up in the world
+    near = ((np.abs(co[:, 0] - chin[0]) < 0.1 * d) & (np.linalg.norm(co - chin, axis=1) < 0.8 * d)
+            & (height <= height_of(face, chin)))  # on the chin, below its front, not the lips or the nose
+    under = near & (down > np.sin(np.radians(60.0)))
+    if not under.any():
+        return chin
+    forward = -(co @ world.T)[:, 1]  # the face looks toward the world's -Y
+    return co[np.flatnonzero(under)[np.argmax(forward[under])]]
+
+
+def height_of(face, point):
+    """How high ``point`` (face space) is in the world."""
+    return float((np.array(face.matrix_world.to_3x3(), float) @ np.asarray(point, float))[2])
+
+
 def add_tear(face, lm, frame):
-    """A dripping tear that forms at the chin on ``frame`` and falls once (a drop that ran
-    down the cheek and drips off; one formed under the eye would fall into the cheek)."""
+    """A dripping tear that forms on ``frame`` where a tear that ran down to the chin leaves
+    the face (:func:`drip_point`) and falls once, along the world's gravity."""
     from mathutils import Vector
 
     scene = bpy.context.scene
     scene.frame_set(frame)
-    scene.cursor.location = face.matrix_world @ Vector(np.asarray(lm["chin"], float).tolist())
+    scene.cursor.location = face.matrix_world @ Vector(drip_point(face, lm).tolist())
     rigging.activate(face)
     assert bpy.ops.wrinkle.add_teardrop(every=60.0, lasts=3.0) == {"FINISHED"}
 

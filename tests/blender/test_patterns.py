@@ -40,9 +40,9 @@ def _expected(face, lay, t):
     local = rest @ m[:3, :3].T + m[:3, 3]
     centre = np.array(lay.frame.matrix_world.translation)
     damp = patterns.damping_radius(np.linalg.norm(rest - centre, axis=1), lay.radius, lay.border)
-    spec = patterns.PATTERNS[lay.kind]
+    spec = patterns.spec(lay.kind, lay.shape)
     p = {q.key: getattr(lay, q.prop) for q in spec.params}
-    f = patterns.pattern(lay.kind, local[:, 0], local[:, 1], t, **p)
+    f = patterns.pattern(lay.kind, local[:, 0], local[:, 1], t, shape=lay.shape, **p)
     return f * damp * lay.frame.matrix_world.col[2].xyz.length
 
 
@@ -69,6 +69,8 @@ def test_a_layer_added_at_the_cursor_sits_on_the_skin_facing_out_and_follows_its
 def test_moving_the_frame_moves_the_pattern_and_the_scene_time_runs_it():
     face = _face()
     lay = _add(face, "CHEEK")
+    assert lay.shape == "FACE" and not lay.follow_scene  # the smile's fold: it does not run
+    lay.shape, lay.follow_scene = "PAPER", True  # the paper's ripples run
     scene = bpy.context.scene
     scene.frame_set(1)
     before = heights(face)
@@ -314,7 +316,7 @@ def test_refine_splits_the_edges_a_layer_cannot_resolve_and_only_in_its_region()
     length = np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1)
     centre = np.array(face.matrix_world.inverted() @ lay.frame.matrix_world.translation)
     dist = np.linalg.norm(rest[edges].mean(axis=1) - centre, axis=1)
-    step = patterns.half_cycle("EYE_CORNER", lay.time, lay.depth, lay.sharpness, lay.count)
+    step = patterns.half_cycle("EYE_CORNER", lay.time, lay.depth, lay.sharpness, lay.count, lay.shape)
     scale = glue.to_frame(face, lay.frame)[1]
     inside = dist < 0.9 * lay.radius
     assert length[inside].max() <= step * scale / 3.0 + 1e-9
@@ -322,3 +324,54 @@ def test_refine_splits_the_edges_a_layer_cannot_resolve_and_only_in_its_region()
     assert np.isclose(length[dist > 1.5 * lay.radius].max(), grid, rtol=1e-3)  # not split there
     assert bpy.ops.wrinkle.refine(edges_per_half_cycle=3.0) == {"FINISHED"}  # nothing more to do
     assert len(face.data.vertices) == len(rest)
+
+
+def test_layers_added_on_a_head_get_the_face_shaped_variants_sized_and_turned_from_its_landmarks():
+    """On a head with its landmarks placed: crow's feet, frown and cheek get their anatomical
+    shape (the dimple the paper's), each frame sized from the distance between the eyes and
+    facing out of the skin around it (the eye corner's too, in the fold of the lids), the
+    right side's mirrored so its +x points away from the midline, and the cheek's turned
+    along the fold."""
+    from sample_scenes import patterns as sample
+    from sample_scenes.lib import headgen, rigging, scene_setup
+
+    data = headgen.make_head(12000)
+    face = scene_setup.mesh_object_from_arrays("Head", data["positions"], data["quads"], data["corner_uvs"])
+    rigging.wrinkle_face(face, data["landmarks"], refine=False)
+    marks = data["landmarks"]
+    e = 2.0 * abs(marks["eye_L"][0] - marks["glabella"][0])
+    at = patterns.places(marks)
+    for kind in ("EYE_CORNER", "CHEEK", "DIMPLE", "FROWN"):
+        for side in (1.0, -1.0):
+            point = sample._front_hit(face, at[kind][0] * np.array([side, 1.0, 1.0]))
+            lay = _add(face, kind, at=tuple(point))
+            assert lay.shape == ("PAPER" if kind == "DIMPLE" else "FACE")
+            m = np.array(lay.frame.matrix_world)
+            x, y, z = (m[:3, i] for i in range(3))
+            assert np.linalg.norm(z) == pytest.approx(patterns.FRAMES[kind]["unit"] * e, rel=1e-4)
+            z = z / np.linalg.norm(z)
+            assert z[1] < -0.4 and abs(z[2]) < 0.5  # out of the skin, toward the front, not down
+            if kind in patterns.LATERAL:
+                assert np.sign(x[0]) == side  # away from the midline on both sides
+            if kind == "CHEEK":
+                top, bottom = patterns.fold_ends(marks)
+                along = ((top - bottom) * np.array([side, 1.0, 1.0]))[[0, 2]]
+                front = y[[0, 2]]  # seen from the front: the tangent plane's y leans back with the skin
+                assert np.dot(front / np.linalg.norm(front), along / np.linalg.norm(along)) > 0.98
+            if kind == "FROWN":
+                break
+
+
+def test_a_layer_saved_before_the_shape_existed_keeps_the_papers_pattern():
+    face = _face()
+    lay = _add(face, "EYE_CORNER")
+    assert lay.shape == "FACE"
+    scene = bpy.context.scene
+    scene.frame_set(1)
+    anatomical = heights(face)
+    np.testing.assert_allclose(anatomical, _expected(face, lay, lay.time), atol=2e-7)
+    lay.property_unset("shape")  # as a file saved before the setting existed holds it
+    assert lay.shape == "PAPER"
+    paper = heights(face)
+    np.testing.assert_allclose(paper, _expected(face, lay, lay.time), atol=2e-7)
+    assert np.abs(paper - anatomical).max() > 0.2 * np.abs(anatomical).max() > 0

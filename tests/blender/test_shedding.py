@@ -100,7 +100,7 @@ def test_the_tear_runs_down_its_path_follows_the_skin_and_never_enters_it():
     (reveal,) = ob.modifiers
     assert reveal.node_group.name == shedding.GROUP_NAME
     assert tears.get_input(reveal, "Skin") == face
-    assert ob.data.materials[0].name == tears.MATERIAL_NAME
+    assert ob.data.materials[0].name == tears.FILM_NAME
     length = ob["ewrinkles_tear_length"]
     assert length == pytest.approx(0.08, rel=0.02)  # the meridian from 0.4 to 1.2 rad
     speed = tears.get_input(reveal, "Speed")
@@ -124,14 +124,17 @@ def test_the_tear_runs_down_its_path_follows_the_skin_and_never_enters_it():
     assert faces_shown[0] == 0  # on its first frame it has not run yet
     assert shown == sorted(shown) and faces_shown == sorted(faces_shown)  # it only runs on
     assert faces_shown[-1] == len(ob.data.polygons)  # all of it at the end
-    # the head is round: just behind it the tear is thinner than further back
+    # the head is a bead: it swells over the trail behind it, then comes down steeply to a
+    # round front (core.patterns.tears.bead_profile)
     scene.frame_set(24)
     co, arc, _q, _n = _evaluated(ob)
     rest = np.linalg.norm(co, axis=1) - R  # height over the sphere
     front = arc.max()
     head = tears.get_input(reveal, "Head")
     behind = (arc > front - 3 * head) & (arc < front - 2 * head)
-    assert rest[arc > front - 0.25 * head].max() < 0.6 * rest[behind].max()
+    bead = (arc > front - 0.7 * head) & (arc < front - 0.3 * head)
+    assert rest[bead].max() > 1.5 * rest[behind].max()
+    assert rest[arc > front - 0.05 * head].max() < 0.8 * rest[bead].max()
     # it follows the face: swollen, the tear moves out with the skin and stays on it
     scene.frame_set(60)
     before, _a, _q, _n = _evaluated(ob)
@@ -142,6 +145,86 @@ def test_the_tear_runs_down_its_path_follows_the_skin_and_never_enters_it():
         assert 0.0 < d.min() and d.max() < 0.015 * 0.2 * 2 * 0.5 * 2.0 + 0.005  # on the skin, not floating
     after, _a, _q, _n = _evaluated(ob)
     assert np.linalg.norm(after - before, axis=1).mean() > 0.005
+
+
+def test_the_film_is_clear_glossy_water_that_lets_the_light_through():
+    """The shedding tear's material is a thin film: transparent (so shadow rays pass and the
+    skin under it stays lit) plus a sharp gloss weighted by water's Fresnel factor (the skin
+    is not dimmed by ``1 - F``, which drew a dark outline), its inner surfaces clear; in EEVEE
+    its shadows are transparent and it is blended."""
+    face, _key = _sphere_face()
+    ob = _add(face, _curve(_meridian()), duration=1.0)
+    mat = ob.data.materials[0]
+    nodes = mat.node_tree.nodes
+    out = next(n for n in nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output)
+    mix = out.inputs["Surface"].links[0].from_node
+    assert mix.type == "MIX_SHADER"
+    assert mix.inputs[1].links[0].from_node.type == "BSDF_TRANSPARENT"  # from inside: clear
+    wet = mix.inputs[2].links[0].from_node  # from outside: clear + gloss, mixed in by F
+    assert wet.type == "ADD_SHADER"
+    assert {wet.inputs[0].links[0].from_node.type, wet.inputs[1].links[0].from_node.type} == {
+        "BSDF_TRANSPARENT", "BSDF_GLOSSY"}
+    assert not any(n.type in ("BSDF_PRINCIPLED", "BSDF_GLASS", "BSDF_REFRACTION") for n in nodes)
+    fresnel = next(n for n in nodes if n.type == "FRESNEL")
+    assert fresnel.inputs["IOR"].default_value == pytest.approx(1.33)
+    gloss = next(n for n in nodes if n.type == "BSDF_GLOSSY")
+    assert gloss.inputs["Roughness"].default_value <= 0.2
+    assert gloss.inputs["Normal"].is_linked  # the ripples
+    backfacing = next(n for n in nodes if n.type == "NEW_GEOMETRY")
+    assert backfacing.outputs["Backfacing"].is_linked  # seen from inside: clear
+    assert mat.use_transparent_shadow and mat.surface_render_method == "BLENDED"
+    assert shedding.SURFACE_ATTR in ob.data.attributes
+
+
+def _lit_scene(face):
+    """The sphere face in skin, a sun from high on the right as the sample scenes' key, a grey
+    world, and an orthographic camera on the tear's path."""
+    from sample_scenes.lib import scene_setup
+
+    face.data.materials.append(scene_setup.skin_material())
+    scene = bpy.context.scene
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy, sun.data.angle = 3.5, np.radians(12.0)
+    sun.rotation_euler = (np.radians(40.0), 0.0, np.radians(-35.0))
+    scene.collection.objects.link(sun)
+    scene.world = bpy.data.worlds.new("World")
+    scene_setup._enable_nodes(scene.world)
+    bg = next(n for n in scene.world.node_tree.nodes if n.type == "BACKGROUND")
+    bg.inputs["Color"].default_value, bg.inputs["Strength"].default_value = (0.18, 0.18, 0.18, 1.0), 0.3
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.data.type, cam.data.ortho_scale = "ORTHO", 0.06
+    cam.location, cam.rotation_euler = (0.01, -0.5, 0.06), (np.pi / 2, 0.0, 0.0)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    return scene
+
+
+@pytest.mark.render
+@pytest.mark.parametrize("material", ["film", "refracting shell"])
+def test_the_skin_under_the_tear_stays_lit_in_a_render(material, render_small, tmp_path):
+    """A small Cycles render: the tear's pixels are at least 0.9 as bright as the same pixels
+    with the tear hidden (``benchmarks/tear_look.py``'s luminance ratio).  A refracting
+    (transmission) shell, as the tear's material was, blocks the light's shadow rays and
+    leaves the skin under it dark: the measure tells the two apart."""
+    from benchmarks import tear_look
+
+    face, _key = _sphere_face()
+    ob = _add(face, _curve(_meridian()), duration=0.5)
+    if material != "film":
+        ob.data.materials[0] = tears.water_material()
+    scene = _lit_scene(face)
+    scene.frame_set(30)  # all of it shows
+    shown = render_small(scene, tmp_path / "with.exr", size=96, samples=16)[::-1]
+    ob.hide_render = True
+    hidden = render_small(scene, tmp_path / "without.exr", size=96, samples=16)[::-1]
+    ob.hide_render = False
+    cover, face_cover = tear_look.coverage(scene, face, ob, tmp_path / "mask.exr")
+    got = tear_look.figures(shown, hidden, cover, face_cover)
+    assert got["tear_pixels"] > 50
+    if material == "film":
+        assert got["tear_luminance_ratio"] >= 0.9, got
+    else:
+        assert got["tear_luminance_ratio"] < 0.8, got
 
 
 FARM_SCRIPT = textwrap.dedent("""

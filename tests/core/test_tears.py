@@ -171,3 +171,22 @@ def test_a_bound_point_comes_back_and_moves_rigidly_with_its_triangle():
     flat = np.zeros((1, 3))
     w1, h1 = tears.bind([[0.2, 0.3, 0.05]], flat, [[1.0, 0, 0]], [[0, 1.0, 0]])
     np.testing.assert_allclose(tears.bound(w1, h1, flat, [[2.0, 0, 0]], [[0, 2.0, 0]]), [[0.4, 0.6, 0.05]])
+
+
+def test_the_running_head_is_a_bead_with_a_round_front():
+    arc = np.linspace(0.0, 0.05, 5001)
+    length, head = 0.04, 0.004
+    f = tears.bead_profile(arc, length, head)
+    assert (f[arc <= length - head - 1e-9] == 1.0).all() and (f[arc >= length + 1e-9] == 0.0).all()
+    x = (arc - (length - head)) / head
+    assert f.max() > 2.0  # the water gathered at the front, about twice the trail
+    peak = arc[f.argmax()]
+    assert length - 0.7 * head < peak < length - 0.3 * head
+    inside = (x > 0) & (x < 1)
+    slope = np.gradient(f, arc)
+    assert abs(slope[np.searchsorted(arc, length - head) + 1]) * head < 0.1  # leaves the trail smoothly (C¹)
+    assert (slope[inside & (arc > peak)] < 0).all()  # falls to the front
+    assert -slope[inside][-1] * head > 5.0  # steeply: a round front on the skin
+    plain = tears.bead_profile(arc, length, head, bead=0.0)  # no bead: a quarter circle
+    np.testing.assert_allclose(plain[inside], np.sqrt(1.0 - x[inside] ** 2), atol=1e-12)
+    assert plain.max() == 1.0

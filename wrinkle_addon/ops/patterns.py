@@ -2,6 +2,8 @@
 """Operators on the pattern-function layers: add (at the 3D cursor or the selected
 vertices), remove, duplicate, move, mirror and apply as a shape key."""
 
+import math
+
 import bpy
 from bpy.props import EnumProperty, FloatProperty, IntProperty
 
@@ -186,14 +188,23 @@ class WRINKLE_OT_add_teardrop(bpy.types.Operator):
         face = faces.active(context)
         point, normal = _on_skin(context, face, self.where)
         size = glue.face_size(face) * glue.face_unit(face)
-        # the drop forms on the skin, not in it: its widest radius is about 1.5 Width out
-        out = (face.matrix_world.to_3x3() @ normal).normalized() * (tears.REACH * self.width * size)
+        # the drop hangs from its pointed top along the world's gravity, its widest radius about
+        # 1.5 Width out from its axis: it forms on the skin, not in it, out along the normal by
+        # that radius where the skin is upright, and from the skin itself where it faces down
+        n = (face.matrix_world.to_3x3() @ normal).normalized()
+        out = n * (tears.REACH * self.width * size * math.sqrt(max(0.0, 1.0 - n.z * n.z)))
+        start = face.matrix_world @ point + out
         with nothing_left_on_failure():
-            ob = tears.add_teardrop(context, face, face.matrix_world @ point + out, Width=self.width * size,
+            ob = tears.add_teardrop(context, face, start, Width=self.width * size,
                                     Length=0.64 * self.width * size, Speed=8.0 * self.width * size,
                                     Start=(context.scene.frame_current - 1) / _fps(context.scene),
                                     Every=self.every, Lasts=self.lasts)
-        self.report({"INFO"}, f'Added "{ob.name}": its size, speed and timing are in its Teardrop modifier')
+        if tears.falls_into(context, face, start, tears.reach_down(ob)):
+            self.report({"WARNING"}, f'"{ob.name}" falls into the skin: a drop leaves the face where the '
+                        "skin faces down, as under the chin or the jaw; put it there")
+        else:
+            self.report({"INFO"}, f'Added "{ob.name}": its size, speed and timing are in its Teardrop '
+                        "modifier")
         return {"FINISHED"}
 
 

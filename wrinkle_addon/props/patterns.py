@@ -14,7 +14,7 @@ from bpy.props import (
     StringProperty,
 )
 
-from ..core.patterns.functions import KINDS
+from ..core.patterns.functions import KINDS, SHAPES
 from .common import is_muscle, refresh
 
 
@@ -26,6 +26,11 @@ class PatternLayer(bpy.types.PropertyGroup):
     name: StringProperty(name="Name", description="Name of the layer", default="Pattern")
     kind: EnumProperty(name="Type", description="Which pattern function the layer adds", items=KINDS,
                        default="FOREHEAD", update=refresh)
+    shape: EnumProperty(
+        name="Shape", items=SHAPES, default="PAPER", update=refresh,
+        description="For crow's feet, frown and cheek: the paper's pattern function as its text reads, "
+        "or a variant shaped as the wrinkle is on a face (new layers get it; a layer saved before "
+        "the choice existed keeps the paper's)")
     frame: PointerProperty(
         name="Frame", type=bpy.types.Object, poll=is_empty, update=refresh,
         description="The Empty whose x and y span the pattern on the skin and whose z is the skin's "
@@ -51,11 +56,12 @@ class PatternLayer(bpy.types.PropertyGroup):
     waviness: FloatProperty(name="Waviness", description="0 gives straight furrows, larger values wavier "
                             "ones (the forehead pattern's style)", default=0.3, soft_min=0.0, soft_max=3.0,
                             update=refresh)
-    sharpness: FloatProperty(name="Sharpness", description="How narrow each crow's-foot furrow is",
+    sharpness: FloatProperty(name="Sharpness", description="How narrow each furrow is (crow's feet, "
+                             "the cheek fold): its width is 2 / Sharpness of the frame's size",
                              default=6.0, min=0.0, soft_max=30.0, update=refresh)
-    count: FloatProperty(name="Count", description="How many furrows: per half turn for crow's feet, per "
-                         "2 pi of radius for cheek ripples", default=3.0, soft_min=0.0, soft_max=20.0,
-                         update=refresh)
+    count: FloatProperty(name="Count", description="How many furrows: crow's feet in the fan (per half "
+                         "turn in the paper's shape), cheek ripples per 2 pi of radius", default=3.0,
+                         soft_min=0.0, soft_max=20.0, update=refresh)
     spacing: FloatProperty(name="Spacing", description="Distance between the frown furrows", default=0.3,
                            min=0.001, soft_max=3.0, update=refresh)
     speed_x: FloatProperty(name="Speed X", description="How fast the skin trembles along the frame's x",
@@ -67,7 +73,8 @@ class PatternLayer(bpy.types.PropertyGroup):
                             update=refresh)
     time: FloatProperty(
         name="Time", description="The pattern's time t: animate it, or let it run with the scene. For "
-        "crow's feet it is the furrows' length, for a dimple its sharpness", default=0.0,
+        "crow's feet it is the furrows' length, for a dimple its sharpness, for anatomical frown "
+        "lines it adds to their spacing", default=0.0,
         update=refresh)
     follow_scene: BoolProperty(
         name="Run with the Scene", description="Add the scene's time (seconds times Speed) to Time, so "

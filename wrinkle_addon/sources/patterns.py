@@ -48,7 +48,7 @@ class PatternSource(WrinkleSource):
         for lay in face.ewrinkles_face.patterns.layers:
             in_it = lay.frame is not None and lay.frame.session_uid in in_scene
             numbers = tuple(glue.setting(lay, p) for p in ("radius", "border", "fraction", "seed"))
-            key.append((lay.kind, lay.region, lay.drive, _frame_key(lay), in_it, lay.vertex_group)
+            key.append((lay.kind, lay.shape, lay.region, lay.drive, _frame_key(lay), in_it, lay.vertex_group)
                        + numbers)  # what build_layer reads (a stored NaN reads as the default)
         return tuple(key)
 

@@ -43,6 +43,8 @@ def draw_face_patterns(layout, context, face):
     col = layout.column()
     col.use_property_split = True
     col.prop(lay, "kind")
+    if lay.kind in patterns.VARIANTS:
+        col.prop(lay, "shape")
     col.prop(lay, "frame")
     col.prop(lay, "region")
     if lay.region == "RADIUS":
@@ -50,13 +52,15 @@ def draw_face_patterns(layout, context, face):
     else:
         col.prop_search(lay, "vertex_group", face, "vertex_groups")
     col.prop(lay, "border")
-    spec = patterns.PATTERNS.get(lay.kind)  # None: a type this version does not know (the source says so)
+    # None: a type this version does not know (the source says so)
+    spec = patterns.spec(lay.kind, lay.shape) if lay.kind in patterns.PATTERNS else None
     for p in spec.params if spec is not None else ():
         col.prop(lay, p.prop, text=p.name)
-    col.prop(lay, "time")
-    col.prop(lay, "follow_scene")
-    if lay.follow_scene:
-        col.prop(lay, "speed")
+    if spec is None or spec.uses_time:
+        col.prop(lay, "time")
+        col.prop(lay, "follow_scene")
+        if lay.follow_scene:
+            col.prop(lay, "speed")
     col.prop(lay, "strength")
     col.prop(lay, "drive")
     if lay.drive == "SHAPE_KEY" and face.data.shape_keys is not None:

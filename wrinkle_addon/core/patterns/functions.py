@@ -36,6 +36,15 @@ The text was extracted from a PDF; the readings chosen, and why:
 * **Eye pouch** - ``f = |cos(x + a t) + cos(y + b t)| / g``: a and b the trembling's
   speeds along x and y (its style), g the flatness (the bumps stand out by at most 2 / g).
   Periodic in t when a and b are commensurate.
+
+Three of them cannot draw the real wrinkle with any parameters (docs/model.md, "What the
+paper's functions cannot draw"): the eye corner's rose gives petal loops (rays only near the
+centre of a rose far larger than the region, through the corner both ways and unfaded), the
+frown's ``sin(x y / s)`` is odd in x (a furrow facing a ridge across the midline) and the
+cheek's rings are no fold.  Beside each is a variant, ``shape`` ``FACE`` (:data:`VARIANTS`:
+:func:`fan`, :func:`lines`, :func:`fold`, with the sharp furrow and round bulges of
+:func:`furrow`); ``PAPER`` keeps the reading above.  :data:`FRAMES` and :func:`places` size
+and place each type's frame from the face's landmarks.
 """
 
 from dataclasses import dataclass
@@ -88,21 +97,23 @@ def eye_pouch(x, y, t, alpha, beta, gamma):
 
 @dataclass(frozen=True)
 class Pattern:
-    """A pattern type: its height function, its parameters, its default time ``t`` and
-    whether ``t`` runs with the scene by default (running cycles; the eye corner's and the
-    dimple's ``t`` is a size instead)."""
+    """A pattern type: its height function, its parameters, its default time ``t``, whether
+    ``t`` runs with the scene by default (running cycles; the eye corner's and the dimple's
+    ``t`` is a size instead) and whether ``t`` changes the pattern at all."""
 
     function: object
     params: tuple
     time: float
     runs: bool
+    uses_time: bool = True
 
 
 # (type, name, description): the list the interface shows
 KINDS = (
     ("FOREHEAD", "Forehead", "Horizontal forehead furrows, straight or wavy, running as time goes on"),
     ("EYE_CORNER", "Eye Corner", "Crow's feet: furrows fanning out from the eye corner"),
-    ("CHEEK", "Cheek", "Concentric ripples on the cheek"),
+    ("CHEEK", "Cheek", "The smile's cheek: the fold from the nose wing to beyond the mouth corner "
+     "(the paper's reading: concentric ripples)"),
     ("FROWN", "Frown", "Frown furrows between the brows"),
     ("DIMPLE", "Dimple", "A dimple: a round indentation of the cheek"),
     ("EYE_POUCH", "Eye Pouch", "Trembling skin under the eye (anger, sadness)"),
@@ -125,11 +136,161 @@ PATTERNS = {
 }
 
 
-def half_cycle(kind, t, alpha=0.0, beta=0.0, gamma=0.0):
+# --------------------------------------------------------------------------- the face's shapes
+# Where the text's formula cannot give the real wrinkle with any parameters (docs/model.md,
+# "Pattern functions"), a variant beside it: the same frame, parameters and time, a shape
+# that reads as the real thing.  ``SHAPES`` is the list the interface shows.
+SHAPES = (
+    ("PAPER", "Paper", "The pattern function as the paper's text reads (files saved before the "
+     "choice existed keep it)"),
+    ("FACE", "Anatomical", "A variant of the paper's function shaped as the wrinkle is on a face: "
+     "crow's feet fanning out from the eye corner, two vertical frown lines, the smile's cheek fold"),
+)
+FAN_PITCH = np.radians(24.0)  # the angle between two crow's-feet furrows
+FAN_MAX = 12  # at most this many furrows
+LINE_WIDTH = 0.09  # a frown line's half-width (frame units)
+LINE_DIVERGE = 0.12  # how much the frown lines part per frame unit upward
+FOLD_RADIUS = 2.0  # the cheek fold's radius of curvature (frame units), its centre medial
+FOLD_BULGE = (0.5, 0.3, 0.2)  # the cheek's bulge beside the fold: height, distance, width
+_SOFT = 0.2  # the furrow's cusp, rounded over this fraction of its width
+
+
+def furrow(q):
+    """A furrow's cross-section at ``q`` half-widths from its line: 1 on the line (a cusp,
+    slightly rounded: sharp), 0 at one half-width, a round bulge of ``-e^-2`` at two, then
+    back to 0: ``(1 - |q|) e^-|q|``, whose integral is 0 (what the furrow takes, its bulges
+    give back), with ``|q|`` rounded over ``_SOFT``.  Scaled to 1 on the line."""
+    a = np.sqrt(q * q + _SOFT * _SOFT)
+    return (1.0 - a) * np.exp(-a) / ((1.0 - _SOFT) * np.exp(-_SOFT))
+
+
+def fan(x, y, t, alpha, beta, gamma):
+    """Crow's feet as furrows fanning out from the eye corner (the frame's origin) toward
+    its +x: ``gamma`` straight furrows ``FAN_PITCH`` apart, centred on the x axis, each
+    ``2 / beta`` wide (the paper's sharpness) with the :func:`furrow` cross-section at
+    constant width along it, rising from the corner over a quarter of ``t`` (their length)
+    and fading out to nothing at ``t``.  Near the corner of the paper's rose (``t`` far beyond
+    the region) its furrows are these rays, through the corner both ways and never fading."""
+    rho = np.sqrt(x * x + y * y)
+    phi = np.arctan2(y, x)
+    n = float(np.clip(gamma, 0.0, FAN_MAX))
+    k = np.arange(int(np.ceil(n)), dtype=np.float64)
+    if len(k) == 0:
+        return np.zeros_like(rho)
+    angles = (k - 0.5 * (n - 1.0)) * FAN_PITCH
+    weight = np.clip(n - k, 0.0, 1.0)  # a fractional count: the last furrow fainter
+    turn = phi[..., None] - angles
+    across = rho[..., None] * np.sin(turn) * max(float(beta), 0.0)
+    r = rho[..., None] * np.cos(turn) / max(float(t), _EPS)
+    along = smoothstep(r / 0.25) * (1.0 - smoothstep((r - 0.25) / 0.75))
+    return alpha * np.sum(furrow(across) * along * weight, axis=-1)
+
+
+def lines(x, y, t, alpha, beta, gamma=None):
+    """Frown lines: two furrows, one each side of the frame's y axis (the midline), ``beta +
+    t`` apart (the paper's spacing and time), parting by ``LINE_DIVERGE`` per unit upward,
+    ``LINE_WIDTH`` half-wide with the :func:`furrow` cross-section, full over 1.4 units of
+    length about the origin and gone at 2.4 units."""
+    half = 0.5 * max(float(beta) + float(t), 0.0) * (1.0 + LINE_DIVERGE * y)
+    q = (np.abs(x) - half) / LINE_WIDTH
+    length = 1.0 - smoothstep((np.abs(y) - 0.7) / 0.5)
+    return alpha * furrow(q) * length
+
+
+def fold(x, y, t, alpha, beta, gamma=None):
+    """The smile's cheek: one fold through the frame's origin along its y (from the nose wing,
+    +y, to beyond the mouth corner, -y), an arc of the paper's cheek rings of radius
+    ``FOLD_RADIUS`` whose centre lies medially (-x): a :func:`furrow` ``2 / beta`` wide on the
+    arc and the cheek's round bulge beside it, laterally (``FOLD_BULGE``); full over 1.6
+    units of its length, gone at 2.4.  ``t`` does not change it."""
+    s = np.sqrt((x + FOLD_RADIUS) ** 2 + y * y) - FOLD_RADIUS  # + lateral of the fold
+    height, at, width = FOLD_BULGE
+    bulge = height * np.exp(-(((s - at) / width) ** 2))
+    length = 1.0 - smoothstep((np.abs(y) - 0.8) / 0.4)
+    return alpha * (furrow(s * max(float(beta), 0.0)) - bulge) * length
+
+
+VARIANTS = {
+    "EYE_CORNER": Pattern(fan, (Param("alpha", "depth", "Depth", -0.05),
+                                Param("beta", "sharpness", "Sharpness", 16.0),
+                                Param("gamma", "count", "Count", 3.0)), 1.0, False),
+    "FROWN": Pattern(lines, (Param("alpha", "depth", "Depth", -0.08),
+                             Param("beta", "spacing", "Spacing", 1.0)), 0.0, False),
+    "CHEEK": Pattern(fold, (Param("alpha", "depth", "Depth", -0.06),
+                            Param("beta", "sharpness", "Sharpness", 12.0)), 0.0, False, False),
+}
+
+# Per type, for the shape a new layer gets (the variant where there is one): the frame's size
+# (one unit of the pattern) and the region's radius, in units of the distance E between the
+# eyes (about 63 mm on an adult), and the frame's height over its width (an oval dimple).
+FRAMES = {
+    "FOREHEAD": {"unit": 0.04, "radius": 0.8},
+    "EYE_CORNER": {"unit": 0.30, "radius": 0.34},
+    "CHEEK": {"unit": 0.30, "radius": 0.48},
+    "FROWN": {"unit": 0.16, "radius": 0.25},
+    "DIMPLE": {"unit": 0.08, "radius": 0.12, "aspect": 1.25},
+    "EYE_POUCH": {"unit": 0.05, "radius": 0.3},
+}
+LATERAL = {"EYE_CORNER", "CHEEK", "DIMPLE"}  # the frame's +x points away from the midline
+
+
+def spec(kind, shape="PAPER"):
+    """The :class:`Pattern` of type ``kind`` in ``shape`` (``PAPER`` or ``FACE``); a type without
+    a variant is its paper reading in either.  Raises ValueError for an unknown type."""
+    if kind not in PATTERNS:
+        raise ValueError(f"unknown pattern {kind!r}; one of {', '.join(PATTERNS)}")
+    if shape == "FACE" and kind in VARIANTS:
+        return VARIANTS[kind]
+    return PATTERNS[kind]
+
+
+def places(marks):
+    """Where each type's frame goes on the character's left, from the face's landmarks
+    (``marks``: name -> face-space point; those of ``core.muscles.presets.LANDMARKS``, the
+    face looking toward -Y, Z up, its left +X), and the frame's up: ``{kind: (point, up)}``.
+    The eye corner at the outer canthus (a fifth of E beyond the eye's centre, where the
+    eyelid zone of ``core.zones`` ends); the frown between the brows at the glabella; the
+    cheek fold's middle, from beside the nose wing to beyond the mouth corner (its up along
+    it); the dimple beside the mouth corner, just beyond the fold.
+    The points lie near the skin, not on it."""
+    eye, mouth, g = (np.asarray(marks[k], np.float64) for k in ("eye_L", "mouth_corner_L", "glabella"))
+    e = 2.0 * abs(eye[0] - g[0])
+    up = np.array([0.0, 0.0, 1.0])
+    top, bottom = fold_ends(marks)
+    return {
+        "EYE_CORNER": (eye + np.array([0.22 * e, 0.02 * e, 0.0]), up),
+        "FROWN": (g + np.array([0.0, 0.0, -0.03 * e]), up),
+        "CHEEK": (0.5 * (top + bottom), (top - bottom) / max(np.linalg.norm(top - bottom), _EPS)),
+        "DIMPLE": (mouth + np.array([0.27 * e, 0.0, -0.03 * e]), up),
+        "FOREHEAD": (g + np.array([0.0, 0.0, 0.35 * e]), up),
+        "EYE_POUCH": (eye + np.array([0.0, 0.0, -0.3 * e]), up),
+    }
+
+
+def fold_ends(marks):
+    """The smile's cheek fold on the character's left (face space): from beside the nose wing
+    (just lateral of it, four fifths of the way up from the mouth corner to the nose tip) to
+    below and beyond the mouth corner; both at the mouth corner's depth."""
+    eye, mouth, nose, g = (np.asarray(marks[k], np.float64)
+                           for k in ("eye_L", "mouth_corner_L", "nose_tip", "glabella"))
+    e = 2.0 * abs(eye[0] - g[0])
+    dx = mouth[0] - g[0]
+    top = np.array([g[0] + 0.85 * dx, mouth[1], mouth[2] + 0.8 * (nose[2] - mouth[2])])
+    bottom = np.array([mouth[0] + 0.2 * e, mouth[1], mouth[2] - 0.12 * e])
+    return top, bottom
+
+
+def half_cycle(kind, t, alpha=0.0, beta=0.0, gamma=0.0, shape="PAPER"):
     """How far (local units) it is from a furrow of pattern ``kind`` to the next bulge, what
     the mesh must resolve: the eye corner's furrow is about ``2 / b`` wide, the cheek's
     ripples ``pi / b`` apart, the frown's ``pi (b + t)`` at a unit from its axes, the
-    dimple about ``2 sqrt(t)`` across; the forehead's and the eye pouch's period is 2 pi."""
+    dimple about ``2 sqrt(t)`` across; the forehead's and the eye pouch's period is 2 pi.
+    The variants: a crow's-foot furrow and the cheek fold ``2 / b``, a frown line
+    ``2 LINE_WIDTH``."""
+    if shape == "FACE" and kind in VARIANTS:
+        if kind == "FROWN":
+            return 2.0 * LINE_WIDTH
+        return 2.0 / max(abs(float(beta)), _EPS)
     if kind == "EYE_CORNER":
         return 2.0 / max(abs(float(beta)), _EPS)
     if kind == "CHEEK":
@@ -141,14 +302,12 @@ def half_cycle(kind, t, alpha=0.0, beta=0.0, gamma=0.0):
     return np.pi
 
 
-def pattern(kind, x, y, t, alpha=0.0, beta=0.0, gamma=0.0):
-    """The height ``f(x, y, t)`` (local units) of pattern ``kind`` at local coordinates ``x``,
-    ``y`` (arrays), time ``t``, parameters ``alpha``, ``beta``, ``gamma`` (those the pattern
-    does not use are ignored).  Non-finite results (huge parameters) become 0."""
-    try:
-        fn = PATTERNS[kind].function
-    except KeyError:
-        raise ValueError(f"unknown pattern {kind!r}; one of {', '.join(PATTERNS)}") from None
+def pattern(kind, x, y, t, alpha=0.0, beta=0.0, gamma=0.0, shape="PAPER"):
+    """The height ``f(x, y, t)`` (local units) of pattern ``kind`` in ``shape`` (:func:`spec`)
+    at local coordinates ``x``, ``y`` (arrays), time ``t``, parameters ``alpha``, ``beta``,
+    ``gamma`` (those the pattern does not use are ignored).  Non-finite results (huge
+    parameters) become 0."""
+    fn = spec(kind, shape).function
     x = np.asarray(x, np.float64)
     y = np.asarray(y, np.float64)
     with np.errstate(all="ignore"):
@@ -231,11 +390,13 @@ class Layer:
     scale: float
     edges: np.ndarray
     rest_length: np.ndarray
+    shape: str = "PAPER"
 
 
-def layer(kind, local, rest, edges, weight, fraction=1.0, seed=0, scale=1.0):
+def layer(kind, local, rest, edges, weight, fraction=1.0, seed=0, scale=1.0, shape="PAPER"):
     """A :class:`Layer` from the rest mesh's coordinates ``local`` (N, 3) in the frame, the
-    region's ``weight`` (N,) (its damping: 0 outside), the valid ``fraction`` and ``seed``."""
+    region's ``weight`` (N,) (its damping: 0 outside), the valid ``fraction`` and ``seed``, and
+    the ``shape`` (:func:`spec`)."""
     weight = np.asarray(weight, np.float64)
     verts = np.flatnonzero(weight > 0.0)
     w = weight[verts] * valid_vertices(len(verts), fraction, seed)
@@ -246,7 +407,7 @@ def layer(kind, local, rest, edges, weight, fraction=1.0, seed=0, scale=1.0):
     rest = np.asarray(rest, np.float64)
     length = np.linalg.norm(rest[e[:, 0]] - rest[e[:, 1]], axis=1)
     local = np.asarray(local, np.float64)
-    return Layer(kind, verts, local[verts, 0], local[verts, 1], w, float(scale), e, length)
+    return Layer(kind, verts, local[verts, 0], local[verts, 1], w, float(scale), e, length, shape)
 
 
 def compression(lay, skin):
@@ -285,6 +446,6 @@ def heights(pl, values):
     for lay, idx, (t, strength, alpha, beta, gamma) in zip(pl.layers, pl.index, values):
         if strength == 0.0 or len(idx) == 0:
             continue
-        h = pattern(lay.kind, lay.x, lay.y, t, alpha, beta, gamma)
+        h = pattern(lay.kind, lay.x, lay.y, t, alpha, beta, gamma, lay.shape)
         out[idx] += h * lay.weight * (strength * lay.scale)
     return np.nan_to_num(out, nan=0.0, posinf=0.0, neginf=0.0)

@@ -15,17 +15,11 @@ from ..errors import WrinkleError
 from ..muscles import landmarks
 
 COLLECTION_NAME = "Wrinkle Pattern Frames"
-# Per type: the frame's size (its scale: one unit of the pattern), the region's radius and
-# border, as fractions of the face's size, and the parameters that give a visible result
-# on a head of any size (a furrow 0.3-2 mm deep on a 25 cm head).
-KIND_DEFAULTS = {
-    "FOREHEAD": {"unit": 0.008, "radius": 0.16, "depth": -0.25},
-    "EYE_CORNER": {"unit": 0.06, "radius": 0.08, "depth": -0.07, "sharpness": 10.0},
-    "CHEEK": {"unit": 0.03, "radius": 0.08, "depth": -0.04},
-    "FROWN": {"unit": 0.02, "radius": 0.05, "depth": -0.2, "spacing": 0.45},
-    "DIMPLE": {"unit": 0.04, "radius": 0.04, "depth": 0.11},
-    "EYE_POUCH": {"unit": 0.01, "radius": 0.06, "flatness": 16.0},
-}
+# Per type, the parameters of the paper's shapes that new layers get beyond their defaults
+# (a furrow 0.3-2 mm deep on a 25 cm head); the frames' sizes and regions are
+# ``core.patterns.functions.FRAMES``, in units of the distance between the eyes.
+KIND_DEFAULTS = {"FOREHEAD": {"depth": -0.25}, "DIMPLE": {"depth": 0.14}, "EYE_POUCH": {"flatness": 16.0}}
+EYES_PER_SIZE = 0.2  # the distance between the eyes, as a fraction of the face's size
 BORDER = 0.4  # the border's width as a fraction of the radius
 
 
@@ -68,6 +62,20 @@ def face_size(face):
     return float(np.ptp(rest, axis=0).max()) if len(rest) else 1.0
 
 
+def face_measure(face):
+    """The face's size (face units) that the defaults are fractions of, and its landmarks
+    (face space, or None): with the landmarks placed (the left side's; the right is the left
+    mirrored about the glabella), the distance between the eyes over
+    ``EYES_PER_SIZE`` (so a head with a neck or shoulders gets the same patterns as one
+    without), else the mesh's largest extent."""
+    marks = landmarks.landmark_positions(face)
+    if marks is not None:
+        e = 2.0 * abs(float(np.asarray(marks["eye_L"])[0] - np.asarray(marks["glabella"])[0]))
+        if e > 1e-9:
+            return e / EYES_PER_SIZE, marks
+    return face_size(face), marks
+
+
 def to_frame(face, frame_ob):
     """The 4x4 matrix from the face's space to the frame's, and the length of one unit of the
     frame's z in the face's units."""
@@ -95,6 +103,7 @@ def build_layer(face, mesh, lay):
     rest mesh ``mesh``.  Raises PatternError, also for a setting the file holds that this
     version does not know (:func:`setting`)."""
     kind, region, _drive = setting(lay, "kind"), setting(lay, "region"), setting(lay, "drive")
+    shape = setting(lay, "shape")
     radius, border = setting(lay, "radius"), setting(lay, "border")
     if lay.frame is None or lay.frame.name not in bpy.context.scene.objects:
         raise PatternError(f'The layer "{lay.name}" has lost its frame (the Empty was deleted): pick '
@@ -120,7 +129,7 @@ def build_layer(face, mesh, lay):
     if keep is not None:
         weight = weight * keep
     return patterns.layer(kind, local, rest, mesh.edges, weight, setting(lay, "fraction"),
-                          setting(lay, "seed"), scale)
+                          setting(lay, "seed"), scale, shape)
 
 
 def refine_need(face, factor, scene):
@@ -144,7 +153,7 @@ def refine_need(face, factor, scene):
             inside = np.zeros(len(rest), bool)
             inside[built.verts] = True
             near = inside[edges[:, 0]] | inside[edges[:, 1]]
-            step = patterns.half_cycle(built.kind, t, alpha, beta, gamma) * built.scale / factor
+            step = patterns.half_cycle(built.kind, t, alpha, beta, gamma, built.shape) * built.scale / factor
             limit[near] = np.minimum(limit[near], step)
         d = rest[edges[:, 1]] - rest[edges[:, 0]]
         return np.flatnonzero(np.sqrt(np.einsum("ij,ij->i", d, d)) > limit)
@@ -161,7 +170,7 @@ def values(face, lay, scene, skin_compression=None):
     """This frame's ``(t, strength, alpha, beta, gamma)`` of the layer ``lay``; the strength
     driven by a shape key or a muscle here, by the compression in the source.  Raises
     PatternError for a type or drive this version does not know (:func:`setting`)."""
-    spec = patterns.PATTERNS[setting(lay, "kind")]
+    spec = patterns.spec(setting(lay, "kind"), setting(lay, "shape"))
     params = {p.key: setting(lay, p.prop) for p in spec.params}
     t = setting(lay, "time")
     if lay.follow_scene:
@@ -190,11 +199,13 @@ def _frame_collection(scene):
     return coll
 
 
-def surface_frame(face, point, normal, unit):
+def surface_frame(face, point, normal, unit, up=(0.0, 0.0, 1.0), flip=False, aspect=1.0):
     """A world matrix at ``point`` (face space) with z along ``normal`` (face space), y along
-    the face's up (its z) in the tangent plane, scaled to ``unit`` (scene units)."""
+    ``up`` (face space; the face's up, its z, by default) in the tangent plane, scaled to
+    ``unit`` (scene units), its y ``aspect`` times that; ``flip`` mirrors its x (so that a
+    pattern on the character's right points the same way from the midline as on its left)."""
     n = Vector(normal).normalized()
-    up = Vector((0.0, 0.0, 1.0))
+    up = Vector(up)
     y = up - up.dot(n) * n
     if y.length < 1e-6:
         y = Vector((0.0, 1.0, 0.0)) - n * n.y
@@ -204,7 +215,7 @@ def surface_frame(face, point, normal, unit):
     w = face.matrix_world
     world_rot = (w.to_3x3().normalized() @ rot.to_3x3()).to_4x4()
     world = Matrix.Translation(w @ Vector(point)) @ world_rot
-    return world @ Matrix.Diagonal((unit, unit, unit, 1.0))
+    return world @ Matrix.Diagonal((-unit if flip else unit, unit * aspect, unit, 1.0))
 
 
 def nearest_on_skin(face, point_world):
@@ -217,6 +228,23 @@ def nearest_on_skin(face, point_world):
     tri, _bary, _dist, loc = surface.Snapper(rest, tris).nearest(local[None])
     a, b, c = rest[tris[tri[0]]]
     return Vector(loc[0].tolist()), Vector(np.cross(b - a, c - a).tolist()).normalized()
+
+
+def patch_normal(face, point, radius, normal):
+    """The skin's mean normal (face space) over the triangles within ``radius`` (face units) of
+    ``point``, area-weighted and turned to the side of ``normal``: a frame at a corner of the
+    skin (the eye's outer corner, in the fold of the lids) faces the way the patch around it
+    does, not the way its one nearest triangle does.  ``normal`` when no triangle is near."""
+    rest, tris = surface.triangles(face.data)
+    if len(tris) == 0:
+        return Vector(normal)
+    a, b, c = rest[tris[:, 0]], rest[tris[:, 1]], rest[tris[:, 2]]
+    near = np.linalg.norm((a + b + c) / 3.0 - np.asarray(point, np.float64), axis=1) < radius
+    n = np.cross(b[near] - a[near], c[near] - a[near]).sum(axis=0)
+    if not np.linalg.norm(n) > 1e-12:
+        return Vector(normal)
+    n = Vector((n / np.linalg.norm(n)).tolist())
+    return n if n.dot(Vector(normal)) >= 0.0 else -n
 
 
 def selected_point(face):
@@ -240,19 +268,38 @@ def selected_point(face):
 
 def add_layer(context, face, kind, point, normal):
     """A new layer of ``kind`` with a new frame Empty on the skin at ``point`` (face space),
-    its z along ``normal``; sized for the face.  Returns the layer."""
-    d = KIND_DEFAULTS[kind]
-    size = face_size(face) * face_unit(face)
+    its z along the skin's mean normal around it (:func:`patch_normal`, on the side of
+    ``normal``); sized for the face (:func:`face_measure`) by ``core.patterns.functions.FRAMES``.
+    A type with a face-shaped variant (``core.patterns.functions.VARIANTS``) gets it; with
+    the landmarks placed, a frame on the character's right is mirrored (its +x away from the
+    midline, as the Mirror operator makes it) and the cheek fold's frame is turned along the
+    fold (``core.patterns.functions.fold_ends``).  Returns the layer."""
+    size, marks = face_measure(face)
+    size *= face_unit(face)
+    shape = "FACE" if kind in patterns.VARIANTS else "PAPER"
+    spec = patterns.spec(kind, shape)
+    f = patterns.FRAMES[kind]
+    d = dict(KIND_DEFAULTS.get(kind, {}) if shape == "PAPER" else {}, unit=f["unit"] * EYES_PER_SIZE,
+             radius=f["radius"] * EYES_PER_SIZE, aspect=f.get("aspect", 1.0))
+    up, flip = (0.0, 0.0, 1.0), False
+    if marks is not None and kind in patterns.LATERAL:
+        mid = float(np.asarray(marks["glabella"])[0])
+        flip = float(point[0]) < mid
+        if kind == "CHEEK" and shape == "FACE":
+            top, bottom = patterns.fold_ends(marks)
+            up = (top - bottom) * (-1.0 if flip else 1.0, 1.0, 1.0)  # the right side's: mirrored
+            up = tuple(up.tolist())
+    normal = patch_normal(face, point, 0.35 * d["radius"] * size / face_unit(face), normal)
     ob = bpy.data.objects.new(f"{face.name} {kind.replace('_', ' ').title()} Frame", None)
     ob.empty_display_type = "ARROWS"
     _frame_collection(context.scene).objects.link(ob)
-    ob.matrix_world = surface_frame(face, point, normal, d["unit"] * size)
+    ob.matrix_world = surface_frame(face, point, normal, d["unit"] * size, up, flip, d["aspect"])
     st = stack(face)
     lay = st.layers.add()
     lay.name = kind.replace("_", " ").title()
     lay.kind = kind
+    lay.shape = shape
     lay.frame = ob
-    spec = patterns.PATTERNS[kind]
     for p in spec.params:
         setattr(lay, p.prop, d.get(p.prop, p.default))
     lay.time, lay.follow_scene = spec.time, spec.runs

@@ -7,12 +7,15 @@ path on the skin, built once in NumPy (``core.patterns.tears.Tear``) and then le
   along the triangle's normal (``core.patterns.tears.bind``), and is put back on that triangle of the
   face's evaluated mesh every frame (Surface Deform refuses faces with concave polygons,
   which real meshes have);
-- the same group reveals it with the scene time, ``h = s + c t`` (step five): over
-  the head, the last ``Head`` before ``h``, the tear narrows to a round tip (a quarter
-  circle) and its top is lowered onto its bottom (``1 - smoothstep``); everything ahead of
-  the head is removed.
+- the same group reveals it with the scene time, ``h = s + c t`` (step five), up to the
+  path's end, where it stops: over the head, the last ``Head`` before ``h``, the tear
+  narrows to a round tip (a quarter circle) and its top swells into a bead and comes down
+  steeply onto its bottom at the front (``core.patterns.tears.bead_profile``); everything
+  ahead of the head is removed.
 
-So it animates and renders with no Python per frame (and on a farm with no add-on)."""
+Its material is a thin film of water (``tears.film_material``): the skin seen through it,
+lit, with sharp Fresnel reflections.  So it animates and renders with no Python per frame
+(and on a farm with no add-on)."""
 
 import bpy
 import numpy as np
@@ -26,7 +29,7 @@ from ..faces import collections_for
 from ..nodes import Builder, float_inputs
 from ..nodes import ensure_group as ensure_group_of
 from .layers import face_unit
-from .tears import TearError, get_input, set_input, water_material
+from .tears import SURFACE_ATTR, TearError, film_material, get_input, set_input
 
 GROUP_NAME = "Shedding Tear"
 MODIFIER_NAME = "Shedding Tear"
@@ -36,9 +39,9 @@ LIFT_ATTR = "tear_skin_lift"  # the height along the triangle's normal
 ARC_ATTR = "tear_arc"  # the arc length along the path under each vertex, scene units
 PARTNER_ATTR = "tear_partner"  # the bottom vertex under each vertex
 CENTRE_ATTR = "tear_centre"  # the vertex at the middle of each vertex's row, on its own sheet
-VERSION = 1
-ACROSS = 9  # points across the tear
-ROWS_PER_WIDTH = 4  # rows along the path per tear width
+VERSION = 2
+ACROSS = 13  # points across the tear
+ROWS_PER_WIDTH = 8  # rows along the path per tear width
 GAP = 0.04  # the bottom's height over the skin, per tear width: above the chords across facets
 INPUTS = (  # name, default, min, max, tooltip
     ("Shown", 0.0, 0.0, 1e3, "How much of its path the tear covers when it starts (the formula's s), "
@@ -48,6 +51,8 @@ INPUTS = (  # name, default, min, max, tooltip
     ("Head", 0.003, 1e-6, 1e3, "The length of the tear's rounded head, in scene units"),
     ("Start", 0.0, -1e6, 1e6, "When the tear starts to run, in seconds of scene time"),
     ("Every", 0.0, 0.0, 1e6, "Run again every so many seconds, a running cycle; 0: run once and stay"),
+    ("Bead", tears.BEAD, 0.0, 10.0, "How much the tear's head swells over its trail, the water gathered at "
+     "its front: 0 a plain rounded end; at the default the head is about twice as thick as the trail"),
 )
 
 
@@ -76,16 +81,23 @@ def _build(ng):
     h = b.math("MULTIPLY_ADD", i["Speed"], tau, i["Shown"])  # h = s + c t
     started = b.math("GREATER_THAN", since, -1e-6)
     h = b.math("MULTIPLY_ADD", b.math("ADD", h, 1.0), started, -1.0)  # before Start: -1, nothing shows
+    # the tear stops at its path's end, its head gathered there
+    length = b.node("GeometryNodeAttributeStatistic", data_type="FLOAT", domain="POINT")
+    b.link(i["Geometry"], length.inputs["Geometry"])
+    b.link(arc, length.inputs["Attribute"])
+    h = b.math("MINIMUM", h, length.outputs["Max"])
     b.x = 600
     into = b.node("ShaderNodeMapRange", data_type="FLOAT", clamp=True)  # 0 behind the head, 1 at h
     b.link(arc, into.inputs["Value"])
     b.link(b.math("SUBTRACT", h, i["Head"]), into.inputs["From Min"])
     b.link(h, into.inputs["From Max"])
     x = into.outputs["Result"]
-    thick = b.math("SUBTRACT", 1.0, b.math("MULTIPLY", b.math("MULTIPLY", x, x),
-                                           b.math("SUBTRACT", 3.0, b.math("MULTIPLY", x, 2.0))))
-    wide = b.math("SQRT", b.math("MAXIMUM", b.math("SUBTRACT", 1.0, b.math("MULTIPLY", x, x)),
-                                 tears.OUTLINE_TIP ** 2))
+    # the bead (core.patterns.tears.bead_profile): (1 + Bead sin^2(pi x)) sqrt(1 - x^2)
+    round_ = b.math("SUBTRACT", 1.0, b.math("MULTIPLY", x, x))
+    swell = b.math("SINE", b.math("MULTIPLY", x, 3.141592653589793))
+    thick = b.math("MULTIPLY", b.math("MULTIPLY_ADD", b.math("MULTIPLY", swell, swell), i["Bead"], 1.0),
+                   b.math("SQRT", b.math("MAXIMUM", round_, 0.0)))
+    wide = b.math("SQRT", b.math("MAXIMUM", round_, tears.OUTLINE_TIP ** 2))
     b.x = 800
     narrowed = _toward(b, on_skin, CENTRE_ATTR, wide)
     lowered = _toward(b, narrowed, PARTNER_ATTR, thick)
@@ -293,6 +305,10 @@ def _mesh(name, tear, unit, skin, base_tri):
         "vector", np.ascontiguousarray(weights, np.float32).ravel())
     me.attributes.new(LIFT_ATTR, "FLOAT", "POINT").data.foreach_set(
         "value", np.ascontiguousarray(lift, np.float32))
+    width = 2.0 * tear.half_width
+    surface_uv = np.stack([tear.arc / width, tear.across[tear.partner], np.zeros(len(tear.arc))], 1)
+    me.attributes.new(SURFACE_ATTR, "FLOAT_VECTOR", "POINT").data.foreach_set(
+        "vector", np.ascontiguousarray(surface_uv, np.float32).ravel())
     me.shade_smooth()
     return me
 
@@ -310,7 +326,7 @@ def add_shedding_tear(context, face, path, half_width, thickness, gap, roughness
     tear, base_tri = build(skin, path, half_width, thickness, gap, roughness, seed, unit)
     say(0.6, "binding it to the skin")
     me = _mesh(f"{face.name} Tear", tear, unit, skin, base_tri)
-    me.materials.append(water_material())
+    me.materials.append(film_material())
     ob = bpy.data.objects.new(f"{face.name} Tear", me)
     for coll in collections_for(face, context.scene):
         coll.objects.link(ob)

@@ -1,7 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Dripping tears ("Pattern functions and tears", §4.1) as objects: the teardrop surface of
-``core.patterns.tears`` built by a Geometry Nodes group from the scene time, so a drop animates, falls,
-repeats and renders with no Python (and on a farm with no add-on), in a water material."""
+"""Tears' water and dripping tears ("Pattern functions and tears", §4.1) as objects: the
+teardrop surface of ``core.patterns.tears`` built by a Geometry Nodes group from the scene time,
+so a drop animates, falls along the world's gravity, repeats and renders with no Python (and on
+a farm with no add-on), in a water material; and the thin water film of shedding tears
+(:func:`film_material`)."""
 
 import math
 
@@ -16,7 +18,7 @@ from ..nodes import ensure_group as ensure_group_of
 GROUP_NAME = "Teardrop"
 MODIFIER_NAME = "Teardrop"
 MATERIAL_NAME = "Tear Water"
-VERSION = 1
+VERSION = 2
 NU, NV = 24, 32  # rows from the top to the bottom of the drop, columns around it
 REACH = 1.6  # the drop's widest radius at its birth is 1.51 Width: a drop this far out touches the skin
 INPUTS = (  # name, default, min, max, tooltip
@@ -68,9 +70,19 @@ def _build(ng):
     b.link(b.math("MULTIPLY", r, b.math("SINE", v)), xyz.inputs["Y"])
     b.link(z, xyz.inputs["Z"])
     b.x = 800
+    # the formula's z is the world's up: the drop falls along the world's gravity however the
+    # head (its parent) is turned; its points, offsets from its origin in the world, are
+    # taken into its own space by the inverse of its world matrix (no Python per frame)
+    me = b.node("GeometryNodeObjectInfo", transform_space="ORIGINAL")
+    b.link(b.node("GeometryNodeSelfObject").outputs[0], me.inputs["Object"])
+    to_local = b.node("FunctionNodeInvertMatrix")
+    b.link(me.outputs["Transform"], to_local.inputs["Matrix"])
+    local = b.node("FunctionNodeTransformDirection")
+    b.link(xyz.outputs[0], local.inputs["Direction"])
+    b.link(to_local.outputs["Matrix"], local.inputs["Transform"])
     setpos = b.node("GeometryNodeSetPosition")
     b.link(grid.outputs["Mesh"], setpos.inputs["Geometry"])
-    b.link(xyz.outputs[0], setpos.inputs["Position"])
+    b.link(local.outputs[0], setpos.inputs["Position"])
     merge = b.node("GeometryNodeMergeByDistance")  # the seam around and the two tips
     merge.inputs["Distance"].default_value = 1e-7
     b.link(setpos.outputs[0], merge.inputs["Geometry"])
@@ -102,7 +114,9 @@ def ensure_group():
 
 
 def water_material():
-    """Clear water: full transmission, IOR 1.33, low roughness."""
+    """A falling drop's water: a solid lens of clear water (full transmission, IOR 1.33, low
+    roughness), refracting what is behind it.  EEVEE refracts by ray tracing through a
+    sphere-like thickness (the material's own settings; the scene's Raytracing sharpens it)."""
     mat = bpy.data.materials.get(MATERIAL_NAME) or bpy.data.materials.new(MATERIAL_NAME)
     use_nodes(mat)
     bsdf = principled(mat.node_tree)
@@ -111,6 +125,84 @@ def water_material():
     bsdf.inputs["IOR"].default_value = 1.33
     bsdf.inputs["Roughness"].default_value = 0.03
     mat.diffuse_color = (0.8, 0.9, 1.0, 0.3)
+    mat.use_raytrace_refraction = True  # EEVEE: refract what is behind, not only the world
+    mat.thickness_mode = "SPHERE"
+    mat.use_transparent_shadow = True
+    return mat
+
+
+FILM_NAME = "Tear Film"
+FILM_VERSION = 2
+FILM_IOR = 1.33  # water
+FILM_ROUGHNESS = 0.08  # the tear's fine ripples, below the mesh and the ripple texture
+SURFACE_ATTR = "tear_surface"  # a shedding tear's (along, across) in tear widths, for its ripples
+RIPPLE_SCALE = 8.0  # ripples per tear width
+RIPPLE_TILT = 1.0  # how far the ripples tilt the film's normal
+
+
+def film_material():
+    """A shedding tear's water: a thin film on the skin.  Its two surfaces are almost parallel
+    and a fraction of a millimetre apart, so the skin seen through it is not displaced and
+    light crosses it nearly whole: what reaches the eye is the skin behind, plus a
+    mirror-like reflection weighted by the Fresnel factor ``F`` (IOR 1.33, 2 % face-on,
+    rising toward grazing angles, so the film's curved edges and its rounded head catch the
+    lights).  That is a Transparent BSDF plus ``F`` times a sharp Glossy BSDF.  The skin is
+    not dimmed by ``1 - F``: the film lies on the skin, and what it reflects away at its
+    grazing edges is the skin's light coming back out of it, so taking ``1 - F`` off there
+    (with a reflection of the dark room in its place) draws a dark outline, a tube, that real
+    tears do not show.
+    The film's inner surfaces (seen from inside the closed shell: Backfacing) are left fully
+    transparent, so it is one interface, not a mirror inside.  Transparent lets shadow rays
+    through in Cycles and EEVEE (transparent shadows), so the skin under the tear stays lit:
+    a refracting (transmission) shell blocks them, and its skin shows as a dark cut."""
+    mat = bpy.data.materials.get(FILM_NAME)
+    if mat is not None and mat.get("ewrinkles_version") == FILM_VERSION:
+        return mat
+    mat = mat or bpy.data.materials.new(FILM_NAME)
+    use_nodes(mat)
+    nt = mat.node_tree
+    nt.nodes.clear()
+    b = Builder(nt)
+    geometry = b.node("ShaderNodeNewGeometry")
+    facing, normal = geometry.outputs["Backfacing"], geometry.outputs["Normal"]
+    where = b.node("ShaderNodeAttribute", attribute_name=SURFACE_ATTR)
+    noise = b.node("ShaderNodeTexNoise", noise_dimensions="3D")
+    b.link(where.outputs["Vector"], noise.inputs["Vector"])
+    noise.inputs["Scale"].default_value = RIPPLE_SCALE
+    noise.inputs["Detail"].default_value = 2.0
+    b.x = 200
+    # the ripples: a random tangent tilt of the normal, t - (t . n) n, scaled and added
+    tilt = b.decode(noise.outputs["Color"])
+    tilt = b.vmath("SUBTRACT", tilt, b.vmath("SCALE", normal, scale=b.vmath("DOT_PRODUCT", tilt, normal)))
+    rippled = b.vmath("NORMALIZE", b.vmath("MULTIPLY_ADD", tilt, (RIPPLE_TILT,) * 3, normal))
+    b.x = 400
+    fresnel = b.node("ShaderNodeFresnel")
+    fresnel.inputs["IOR"].default_value = FILM_IOR  # on the film's smooth normal: no dark mottling
+    fac = b.math("MULTIPLY", fresnel.outputs["Fac"], b.math("SUBTRACT", 1.0, facing))
+    clear = b.node("ShaderNodeBsdfTransparent")
+    clear.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    gloss = b.node("ShaderNodeBsdfGlossy", distribution="GGX")
+    gloss.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    gloss.inputs["Roughness"].default_value = FILM_ROUGHNESS
+    b.link(rippled, gloss.inputs["Normal"])
+    b.x = 600
+    wet = b.node("ShaderNodeAddShader")  # the skin seen through, plus the film's reflection
+    b.link(clear.outputs[0], wet.inputs[0])
+    b.link(gloss.outputs[0], wet.inputs[1])
+    mix = b.node("ShaderNodeMixShader")  # clear + F gloss (fully clear from inside)
+    b.link(fac, mix.inputs["Fac"])
+    b.link(clear.outputs[0], mix.inputs[1])
+    b.link(wet.outputs[0], mix.inputs[2])
+    b.x = 800
+    out = b.node("ShaderNodeOutputMaterial")
+    b.link(mix.outputs[0], out.inputs["Surface"])
+    mat.diffuse_color = (0.9, 0.95, 1.0, 0.15)
+    mat.roughness = FILM_ROUGHNESS
+    mat.use_transparent_shadow = True  # EEVEE: the skin under the film stays lit
+    # EEVEE: blended, a smooth see-through film (dithered needs many samples not to speckle);
+    # the film's highlights are the lights' own, which blended surfaces keep
+    mat.surface_render_method = "BLENDED"
+    mat["ewrinkles_version"] = FILM_VERSION
     return mat
 
 
@@ -137,6 +229,30 @@ def set_input(mod, name, value):
 def get_input(mod, name):
     holder, key = _input(mod, name)
     return holder.value if key == "value" else holder[key]
+
+
+def reach_down(ob):
+    """How far below its origin the teardrop object ``ob``'s drop reaches over its life
+    (scene units): its fall, ``Speed x Lasts``, and its length then, ``2 Length t``."""
+    mod = ob.modifiers[MODIFIER_NAME]
+    speed, length, lasts = (float(get_input(mod, n)) for n in ("Speed", "Length", "Lasts"))
+    return speed * lasts + 2.0 * length * (tears.T0 + lasts)
+
+
+def falls_into(context, face, start, distance):
+    """Whether a drop falling from ``start`` (world) along the world's -Z meets the skin of
+    ``face`` (evaluated) within ``distance`` (scene units)."""
+    from mathutils import Vector
+
+    inverse = face.matrix_world.inverted_safe()
+    begin = Vector(start) - Vector((0.0, 0.0, 1e-3 * distance))
+    down = inverse.to_3x3() @ Vector((0.0, 0.0, -1.0))
+    scale = down.length
+    if scale <= 0.0:
+        return False
+    hit, where, _n, _i = face.ray_cast(inverse @ begin, down / scale, distance=distance * scale,
+                                       depsgraph=context.evaluated_depsgraph_get())
+    return bool(hit)
 
 
 def add_teardrop(context, face, location, **values):
