@@ -17,6 +17,7 @@ from mathutils import Vector
 
 from sample_scenes import patterns
 from sample_scenes.lib import scene_setup
+from wrinkle_addon.core.patterns import functions
 
 SMILE_FRAMES = (1, 8, 14, 20)
 FROWN_FRAMES = (22, 28, 34, 40)
@@ -28,9 +29,9 @@ PATTERN_SPOTS = (("crows_feet", SMILE_FRAMES), ("cheek", SMILE_FRAMES), ("dimple
 
 def _spots(lm):
     """Where each close-up looks (face space) and how wide it sees (face units)."""
-    eye, mouth, g = (np.asarray(lm[k], float) for k in ("eye_L", "mouth_corner_L", "glabella"))
+    eye, mouth = (np.asarray(lm[k], float) for k in ("eye_L", "mouth_corner_L"))
     d = eye[2] - mouth[2]
-    e = 2.0 * abs(eye[0] - g[0])  # the distance between the eyes
+    e = functions.eye_distance(lm)
     at = patterns.places(lm)
     return {
         "crows_feet": (at["EYE_CORNER"] + np.array([0.05 * e, 0.0, 0.0]), 0.6 * e),

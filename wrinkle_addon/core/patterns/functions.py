@@ -244,6 +244,13 @@ def spec(kind, shape="PAPER"):
     return PATTERNS[kind]
 
 
+def eye_distance(marks):
+    """The distance ``E`` between the eyes (face units) from the face's landmarks ``marks``
+    (twice the left eye's distance from the midline, at the glabella): the unit of
+    :data:`FRAMES` and :func:`places`."""
+    return 2.0 * abs(float(np.asarray(marks["eye_L"])[0]) - float(np.asarray(marks["glabella"])[0]))
+
+
 def places(marks):
     """Where each type's frame goes on the character's left, from the face's landmarks
     (``marks``: name -> face-space point; those of ``core.muscles.presets.LANDMARKS``, the
@@ -254,7 +261,7 @@ def places(marks):
     it); the dimple beside the mouth corner, just beyond the fold.
     The points lie near the skin, not on it."""
     eye, mouth, g = (np.asarray(marks[k], np.float64) for k in ("eye_L", "mouth_corner_L", "glabella"))
-    e = 2.0 * abs(eye[0] - g[0])
+    e = eye_distance(marks)
     up = np.array([0.0, 0.0, 1.0])
     top, bottom = fold_ends(marks)
     return {
@@ -271,9 +278,8 @@ def fold_ends(marks):
     """The smile's cheek fold on the character's left (face space): from beside the nose wing
     (just lateral of it, four fifths of the way up from the mouth corner to the nose tip) to
     below and beyond the mouth corner; both at the mouth corner's depth."""
-    eye, mouth, nose, g = (np.asarray(marks[k], np.float64)
-                           for k in ("eye_L", "mouth_corner_L", "nose_tip", "glabella"))
-    e = 2.0 * abs(eye[0] - g[0])
+    mouth, nose, g = (np.asarray(marks[k], np.float64) for k in ("mouth_corner_L", "nose_tip", "glabella"))
+    e = eye_distance(marks)
     dx = mouth[0] - g[0]
     top = np.array([g[0] + 0.85 * dx, mouth[1], mouth[2] + 0.8 * (nose[2] - mouth[2])])
     bottom = np.array([mouth[0] + 0.2 * e, mouth[1], mouth[2] - 0.12 * e])
@@ -287,11 +293,10 @@ def half_cycle(kind, t, alpha=0.0, beta=0.0, gamma=0.0, shape="PAPER"):
     dimple about ``2 sqrt(t)`` across; the forehead's and the eye pouch's period is 2 pi.
     The variants: a crow's-foot furrow and the cheek fold ``2 / b``, a frown line
     ``2 LINE_WIDTH``."""
-    if shape == "FACE" and kind in VARIANTS:
-        if kind == "FROWN":
-            return 2.0 * LINE_WIDTH
-        return 2.0 / max(abs(float(beta)), _EPS)
-    if kind == "EYE_CORNER":
+    face = shape == "FACE" and kind in VARIANTS
+    if face and kind == "FROWN":
+        return 2.0 * LINE_WIDTH
+    if kind == "EYE_CORNER" or face:  # the rose's furrow, a crow's-foot furrow, the cheek fold
         return 2.0 / max(abs(float(beta)), _EPS)
     if kind == "CHEEK":
         return np.pi / max(abs(float(beta)), _EPS)

@@ -70,7 +70,7 @@ def face_measure(face):
     without), else the mesh's largest extent."""
     marks = landmarks.landmark_positions(face)
     if marks is not None:
-        e = 2.0 * abs(float(np.asarray(marks["eye_L"])[0] - np.asarray(marks["glabella"])[0]))
+        e = patterns.eye_distance(marks)
         if e > 1e-9:
             return e / EYES_PER_SIZE, marks
     return face_size(face), marks
@@ -273,7 +273,7 @@ def add_layer(context, face, kind, point, normal):
     A type with a face-shaped variant (``core.patterns.functions.VARIANTS``) gets it; with
     the landmarks placed, a frame on the character's right is mirrored (its +x away from the
     midline, as the Mirror operator makes it) and the cheek fold's frame is turned along the
-    fold (``core.patterns.functions.fold_ends``).  Returns the layer."""
+    fold (``core.patterns.functions.places``).  Returns the layer."""
     size, marks = face_measure(face)
     size *= face_unit(face)
     shape = "FACE" if kind in patterns.VARIANTS else "PAPER"
@@ -285,10 +285,8 @@ def add_layer(context, face, kind, point, normal):
     if marks is not None and kind in patterns.LATERAL:
         mid = float(np.asarray(marks["glabella"])[0])
         flip = float(point[0]) < mid
-        if kind == "CHEEK" and shape == "FACE":
-            top, bottom = patterns.fold_ends(marks)
-            up = (top - bottom) * (-1.0 if flip else 1.0, 1.0, 1.0)  # the right side's: mirrored
-            up = tuple(up.tolist())
+        if kind == "CHEEK" and shape == "FACE":  # along the fold; the right side's mirrored
+            up = tuple((patterns.places(marks)["CHEEK"][1] * (-1.0 if flip else 1.0, 1.0, 1.0)).tolist())
     normal = patch_normal(face, point, 0.35 * d["radius"] * size / face_unit(face), normal)
     ob = bpy.data.objects.new(f"{face.name} {kind.replace('_', ' ').title()} Frame", None)
     ob.empty_display_type = "ARROWS"
