@@ -2,8 +2,8 @@
 """How far the add-on's landmark finder lands from an independent reference on the ICT head.
 
 Run:  .venv45/bin/python benchmarks/landmarks.py   (or any Python with NumPy: no bpy needed)
-      options: --npz PATH (another head with the ICT topology; default ../shared/data/ict_head.npz)
-               --json PATH (the reference; default ict_head_landmarks.json beside the npz)
+      options: --npz PATH (another head with the ICT topology; default the add-on's sample head)
+               --json PATH (the reference; default tests/data/ict_head_landmarks.json)
 
 Prints one JSON line::
 
@@ -65,8 +65,10 @@ if str(ROOT) not in sys.path:
 
 from wrinkle_addon.core.muscles import landmark_finder  # noqa: E402
 
-DEFAULT_NPZ = ROOT.parent / "shared" / "data" / "ict_head.npz"
+DEFAULT_NPZ = ROOT / "wrinkle_addon" / "data" / "ict_head.npz"
 REFERENCE_NAME = "ict_head_landmarks.json"
+#: ICT's own landmarks, a reference for the tests and this benchmark only (the add-on never reads it)
+DEFAULT_REFERENCE = ROOT / "tests" / "data" / REFERENCE_NAME
 GOAL_MM = 5.0
 MIDLINE = (27, 28, 29, 30, 33, 51, 57, 8)  # iBUG points on the midline
 NO_COUNTERPART = {
@@ -170,7 +172,7 @@ def distances_mm(found, reference):
 def measure(npz=DEFAULT_NPZ, reference_json=None):
     """The benchmark's result dict for the head ``npz`` (see the module doc)."""
     npz = Path(npz)
-    reference_json = Path(reference_json) if reference_json else npz.with_name(REFERENCE_NAME)
+    reference_json = Path(reference_json) if reference_json else DEFAULT_REFERENCE
     pos, quads, keys = load_head(npz)
     ref = reference_points(pos, quads, load_reference(reference_json))
     found, method, _message = landmark_finder.find_landmarks(pos, quads, keys or None)
@@ -187,10 +189,10 @@ def measure(npz=DEFAULT_NPZ, reference_json=None):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--npz", default=str(DEFAULT_NPZ), help="a head with ICT's topology")
-    ap.add_argument("--json", default=None, help=f"the reference (default: {REFERENCE_NAME} beside the npz)")
+    ap.add_argument("--json", default=None, help="the reference (default: tests/data/" + REFERENCE_NAME + ")")
     args = ap.parse_args(argv)
     npz = Path(args.npz)
-    ref = Path(args.json) if args.json else npz.with_name(REFERENCE_NAME)
+    ref = Path(args.json) if args.json else DEFAULT_REFERENCE
     if not npz.exists() or not ref.exists():
         print(f"[landmarks] {npz if not npz.exists() else ref} is not available: nothing measured",
               file=sys.stderr)

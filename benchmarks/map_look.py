@@ -56,7 +56,7 @@ POSES = {
 LIT = 0.05  # a zone whose weight is above this is measured
 INSIDE = 0.5  # a pixel whose membership of a lit zone is above this is measured
 LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
-DEFAULT_NPZ = ROOT.parent / "shared" / "data" / "ict_head.npz"  # sample_scenes/lib/ict.py's DEFAULT_PATH
+DEFAULT_NPZ = ROOT / "wrinkle_addon" / "data" / "ict_head.npz"  # sample_scenes/lib/ict.py's DEFAULT_PATH
 
 
 def log(msg):

@@ -21,8 +21,8 @@ maps against the geometric wrinkles of the same pose), and for the sample head `
 
 The faces, rigged as the sample scenes rig them (``sample_scenes/lib/rigging.py``):
 
-* ``ict``: the scanned ICT head (``../shared/data/ict_head.npz``, not shipped; skipped with
-  a message when absent), as ``sample_scenes/scanned_head.py`` builds it: its landmarks
+* ``ict``: the scanned ICT head (the add-on's sample head,
+  ``wrinkle_addon/data/ict_head.npz``), as ``sample_scenes/scanned_head.py`` builds it: its landmarks
   from ``sample_scenes/lib/ict.py``, the facial muscle set wrinkles-only, the regions
   refined, posed by its ARKit shape keys: brow_raise = browInnerUp_L/R + browOuterUp_L/R,
   brow_down = browDown_L/R, smile = mouthSmile_L/R, squint = eyeSquint_L/R +

@@ -10,7 +10,7 @@ Prints one JSON line per engine on stdout::
     {"face": "ict", "expression": "tear", "engine": "CYCLES", "tear_luminance_ratio": 0.98,
      "tear_highlight_ratio": 2.1, "closeup": {...}, ...}
 
-The scene is the demo's: the ICT head (``../shared/data/ict_head.npz``, not shipped) as
+The scene is the demo's: the ICT head (the add-on's sample head) as
 ``sample_scenes/patterns.py`` builds it (``build_ict``: its portrait rig, lights and world,
 the pattern layers, the dripping tear and the shedding tear down the left cheek), on frame 20
 (the demo's "Smile" shot: the shedding tear halfway down, its head on the cheek; the dripping

@@ -4,7 +4,7 @@
 Run:  .venv45/bin/python benchmarks/wrinkle_maps.py   (or .venv52)
       options: --size 512 --samples 32 --rounds 5 --bake 2048 [--float-map]
 
-Needs ../shared/data/ict_head.npz (the scanned ICT head); exits with a message without it.
+Uses the scanned ICT head, the add-on's sample head (wrinkle_addon/data/ict_head.npz).
 The head is built like ``sample_scenes/scanned_head_maps.py``: the facial muscle set,
 a wrinkle map baked from the muscles (1024^2, 8-bit, the scene's and the operator's
 defaults; ``--float-map``: float precision), generated masks, Table 1.1 bound to the ARKit

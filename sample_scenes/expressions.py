@@ -4,7 +4,7 @@
 
 Rows (``out/expressions.png``, one without / with pair per expression):
 
-* the scanned ICT head (when ../shared/data/ict_head.npz exists), the facial muscle set
+* the scanned ICT head (the add-on's sample head), the facial muscle set
   pulling: brow raise (browInnerUp + browOuterUp), brow down (browDown) and smile
   (mouthSmile) by its ARKit shape keys, every muscle relaxed (the wrinkles come from the
   compression the rig causes); then Surprise and Frowning by the muscles alone (the add-on's

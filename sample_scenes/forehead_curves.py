@@ -1,5 +1,5 @@
 """Sample scene: forehead lines as wrinkle curves (Bando, Kuratate & Nishita 2002, §6-7) on
-the scanned ICT head (../shared/data/ict_head.npz, not shipped), next to the muscle wrinkles
+the scanned ICT head (the add-on's sample head, wrinkle_addon/data/ict_head.npz), next to the muscle wrinkles
 of the same pose.
 
     python sample_scenes/forehead_curves.py [--out out/forehead_curves] [--size 512] [--samples 32]

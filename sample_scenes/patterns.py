@@ -1,6 +1,6 @@
 """Sample scene: pattern-function layers on a head: crow's feet at both eye corners and a
 dimple on each cheek that come with the smile, and frown furrows that come with the lowered
-brows.  On the scanned ICT head (../shared/data/ict_head.npz, not shipped) the layers are
+brows.  On the scanned ICT head (the add-on's sample head) the layers are
 driven by its ARKit shape keys (eyeSquint, mouthSmile, browDown); on the procedural head
 (``--head procedural``) by its muscles' contractions.  Only the pattern layers wrinkle the
 face here, so the renders show them alone.  A dripping tear forms under the chin, where a
@@ -22,7 +22,7 @@ import numpy as np  # noqa: E402
 
 from sample_scenes.lib import rigging, scene_setup  # noqa: E402
 
-DATA = ROOT.parent / "shared" / "data" / "ict_head.npz"
+DATA = ROOT / "wrinkle_addon" / "data" / "ict_head.npz"
 SMILE = {"mouthSmile_L": 1.0, "mouthSmile_R": 1.0, "eyeSquint_L": 1.0, "eyeSquint_R": 1.0}
 FROWN = {"browDown_L": 1.0, "browDown_R": 1.0}
 SHOTS = {"Neutral": 1, "Smile": 20, "Frowning": 40}

@@ -1,4 +1,4 @@
-"""Sample scene: the scanned ICT head (../shared/data/ict_head.npz, not shipped), animated by
+"""Sample scene: the scanned ICT head (the add-on's sample head, wrinkle_addon/data/ict_head.npz), animated by
 its ARKit shape keys, with wrinkles-only muscles: the wrinkles come from the measured
 compression alone.  Surprise raises the brows (browInnerUp/browOuterUp), Frowning lowers
 them (browDown)."""
@@ -14,7 +14,7 @@ import bpy  # noqa: E402
 
 from sample_scenes.lib import rigging, scene_setup  # noqa: E402
 
-DATA = ROOT.parent / "shared" / "data" / "ict_head.npz"
+DATA = ROOT / "wrinkle_addon" / "data" / "ict_head.npz"
 SURPRISE = {"browInnerUp_L": 1.0, "browInnerUp_R": 1.0, "browOuterUp_L": 1.0, "browOuterUp_R": 1.0}
 FROWN = {"browDown_L": 1.0, "browDown_R": 1.0}
 SHOTS = {"Neutral": 1, "Surprise": 20, "Frowning": 40}

@@ -1,5 +1,5 @@
 """Sample scene: animated wrinkle maps (Jimenez et al. 2011) on the scanned ICT head
-(../shared/data/ict_head.npz, not shipped), with nothing painted by hand.
+(the add-on's sample head, wrinkle_addon/data/ict_head.npz), with nothing painted by hand.
 
 The facial muscle set is placed from the head's landmarks; then, with the add-on's own
 operators, two wrinkle maps are baked from the muscles' geometric wrinkles of two poses
@@ -29,7 +29,7 @@ import bpy  # noqa: E402
 
 from sample_scenes.lib import rigging, scene_setup  # noqa: E402
 
-DATA = ROOT.parent / "shared" / "data" / "ict_head.npz"
+DATA = ROOT / "wrinkle_addon" / "data" / "ict_head.npz"
 SURPRISE = {"browInnerUp_L": 1.0, "browInnerUp_R": 1.0, "browOuterUp_L": 1.0, "browOuterUp_R": 1.0}
 ANGER = {"browDown_L": 1.0, "browDown_R": 1.0, "noseSneer_L": 1.0, "noseSneer_R": 1.0,
          "eyeSquint_L": 0.5, "eyeSquint_R": 0.5}  # FACS AU 4 + 9 + 7, as benchmarks/realism.py poses it

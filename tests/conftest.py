@@ -109,9 +109,7 @@ _OUTCOME_ORDER = ("passed", "failed", "error", "skipped", "xfailed", "xpassed")
 def _skip_reason(report) -> str:
     longrepr = report.longrepr
     reason = longrepr[2] if isinstance(longrepr, tuple) and len(longrepr) == 3 else str(longrepr)
-    reason = reason.removeprefix("Skipped: ").strip()
-    # The shared data folder lives next to the repository: show it as the README names it.
-    return reason.replace(str(ROOT.parent / "shared"), "../shared")
+    return reason.removeprefix("Skipped: ").strip()
 
 
 def _record(report) -> None:

@@ -4,7 +4,7 @@
     python tools/variant_head.py [ICT_HEAD.npz] [-o variant_head.npz]
     .venv45/bin/python benchmarks/realism.py --faces ict --npz variant_head.npz
 
-The input (by default ``../shared/data/ict_head.npz``, see ``shared/data/README.md``) is
+The input (by default the add-on's sample head, ``wrinkle_addon/data/ict_head.npz``) is
 rewritten with the same keys, shapes and dtypes (``positions``, ``quads``, ``corner_uvs``,
 ``expression_names``, ``expression_deltas``; centimetres, Y up, the face toward +Z), so
 anything that reads the ICT head reads this one.  The topology and UVs are kept; the
@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_SOURCE = ROOT.parent / "shared" / "data" / "ict_head.npz"
+DEFAULT_SOURCE = ROOT / "wrinkle_addon" / "data" / "ict_head.npz"
 
 
 def _smoothstep(t):

@@ -1,7 +1,7 @@
 """The ICT Face Model Light skin (``ict_head.npz``) in Blender's convention.
 
-The file lives outside the repository (see ``shared/data/README.md``); it is
-never copied in. ``load_ict`` is pure NumPy; ``ict_object`` needs bpy.
+The file is the add-on's sample data (``wrinkle_addon/data/``, written by
+``tools/ict_to_npz.py``). ``load_ict`` is pure NumPy; ``ict_object`` needs bpy.
 
 ICT stores centimetres with Y up and the face toward +Z. Blender wants metres,
 Z up and the face toward -Y: (x, y, z) -> (x, -z, y) * 0.01, a proper rotation,
@@ -20,7 +20,7 @@ import numpy as np
 
 __all__ = ["DEFAULT_PATH", "load_ict", "ict_object"]
 
-DEFAULT_PATH = Path(__file__).resolve().parents[3] / "shared" / "data" / "ict_head.npz"
+DEFAULT_PATH = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 
 
 def _to_blender(a):

@@ -1,6 +1,6 @@
 """The forehead-lines sample scene (sample_scenes/forehead_curves.py): wrinkle curves (Bando et
 al. 2002, §6-7) on the scanned ICT head, placed from its landmarks and raised by its brow
-shape keys.  Skipped when ../shared/data/ict_head.npz is absent; nothing is rendered.
+shape keys.  Nothing is rendered.
 
 The scene is built once for the module (about 6 s): the per-test reset is replaced by a
 no-op here, and each test sets the frame it looks at.

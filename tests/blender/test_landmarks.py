@@ -14,7 +14,7 @@ from wrinkle_addon.glue import meshio
 from wrinkle_addon.glue.muscles import landmarks
 from wrinkle_addon.ops.muscles import WRINKLE_OT_add_landmarks
 
-ICT = Path(__file__).resolve().parents[3] / "shared" / "data" / "ict_head.npz"
+ICT = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 NAMES = [k for k, _l, _d in presets.LANDMARKS]
 
 
@@ -62,7 +62,6 @@ def test_sphere_falls_back_with_a_warning():
         assert np.linalg.norm(ob.location) == pytest.approx(0.1, abs=0.01)
 
 
-@pytest.mark.skipif(not ICT.exists(), reason="ict_head.npz is not available")
 def test_ict_head_reports_the_rule_and_places_the_found_points():
     data = ict.load_ict(ICT)
     face = ict.ict_object(data)  # the openings, and ARKit shape keys

@@ -24,7 +24,7 @@ from tests.blender import mapscenes, scenes
 from wrinkle_addon.glue import images
 from wrinkle_addon.glue.maps import nodegroups as mapgroup
 
-ICT = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ict_head.npz"
+ICT = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 SIZE = 128  # 1.25 mm a pixel on the 16 cm wide view; a wrinkle's half cycle spans 5 or more
 AGREE = 0.98  # the least mean cosine of agreement (measured 0.9999; flipped R or G: 0.48, -0.44)
 DISAGREE = 0.7  # a flipped derivative must fall below this
@@ -174,7 +174,6 @@ def test_pose_map_shades_like_the_geometric_wrinkles(render_small, tmp_path, mir
 
 
 @pytest.mark.render
-@pytest.mark.skipif(not ICT.exists(), reason=f"{ICT} not found")
 def test_ict_head_pose_map_shades_like_its_geometric_wrinkles(render_small, tmp_path):
     """The same on the scanned head, its UV layout, curvature and perspective, in two poses:
     lowered brows (vertical frown lines: the u derivative carries them, so flipping R must
@@ -209,7 +208,6 @@ def test_ict_head_pose_map_shades_like_its_geometric_wrinkles(render_small, tmp_
 
 
 @pytest.mark.render
-@pytest.mark.skipif(not ICT.exists(), reason=f"{ICT} not found")
 def test_the_demo_maps_look_like_the_geometry_of_anger(tmp_path):
     """``benchmarks/map_look.py``'s measure at a small size: the demo's wrinkle maps
     (baked from the poses, Table 1.1 bound to the shape keys) rendered in the Anger pose

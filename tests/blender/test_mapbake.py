@@ -13,7 +13,7 @@ from wrinkle_addon.glue.errors import WrinkleError
 from wrinkle_addon.glue.maps import bake as mapbake
 from wrinkle_addon.glue.muscles import objects as muscle_objects
 
-ICT = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ict_head.npz"
+ICT = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 
 
 def add_planar_uv(face, name="UVMap"):
@@ -350,7 +350,6 @@ def test_background_progress_line(capfd):
     assert "Bake Wrinkle Map" in out and "%" in out
 
 
-@pytest.mark.skipif(not ICT.exists(), reason=f"{ICT} not found")
 def test_ict_head_forehead_is_wrinkled():
     from sample_scenes.lib import ict, rigging
 
@@ -399,7 +398,6 @@ def test_edit_mode_is_refused_with_a_clear_message():
     bpy.ops.wrinkle.bake_wrinkle_map(resolution="256")
 
 
-@pytest.mark.skipif(not ICT.exists(), reason=f"{ICT} not found")
 def test_ict_corrugators_own_the_glabella():
     """The Corrugator's region lies inside the inner Frontalis'.  Each vertex goes to the
     zone of the muscle that wrinkles it most (the raw amplitude envelope): when the

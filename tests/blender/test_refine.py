@@ -13,7 +13,7 @@ from wrinkle_addon.glue import meshio
 from wrinkle_addon.glue.muscles import landmarks, refine
 from wrinkle_addon.glue.muscles import objects as muscle_objects
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ict_head.npz"
+DATA = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 
 
 def _rule_edges(face, factor=4.0):
@@ -109,7 +109,6 @@ def test_refine_is_undoable():
     assert len(bpy.data.objects[name].data.vertices) == n
 
 
-@pytest.mark.skipif(not DATA.exists(), reason=f"{DATA} not found")
 def test_decimated_ict_head_grows_no_larger_than_the_full_head():
     """The ICT head decimated to about 2k vertices, refined, has at most a quarter more
     vertices than the full head refined: the refinement follows the wrinkles, not the
@@ -146,7 +145,6 @@ def _decimated(data, target=2000):
     return ob
 
 
-@pytest.mark.skipif(not DATA.exists(), reason=f"{DATA} not found")
 def test_refinement_leaves_no_point_on_top_of_another():
     """A pentagon left by a pass, split again, used to give a triangle of no area and then a
     point a micrometre from another (a dark dot in renders): they are welded."""

@@ -1,4 +1,4 @@
-"""The scanned ICT head (../shared/data/ict_head.npz): wrinkles from measured compression alone.
+"""The scanned ICT head (the add-on's sample head, wrinkle_addon/data/ict_head.npz): wrinkles from measured compression alone.
 
 Skipped when the data file is absent; the project never ships a copy of it.
 """
@@ -11,8 +11,7 @@ import pytest
 
 from tests.blender import scenes
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ict_head.npz"
-pytestmark = pytest.mark.skipif(not DATA.exists(), reason=f"{DATA} not found")
+DATA = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 
 BROWS_UP = ("browInnerUp_L", "browInnerUp_R", "browOuterUp_L", "browOuterUp_R")
 

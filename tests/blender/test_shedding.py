@@ -14,7 +14,7 @@ from tests.blender import scenes
 from wrinkle_addon.glue.patterns import shedding, tears
 
 R = 0.1  # the sphere "face"
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ict_head.npz"
+DATA = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 
 
 def _sphere_face():
@@ -325,7 +325,6 @@ def test_bad_paths_get_a_message_and_no_tear(case, message):
     assert not any(o.name.endswith(" Tear") for o in bpy.data.objects)
 
 
-@pytest.mark.skipif(not DATA.exists(), reason=f"{DATA} not found")
 def test_on_the_scanned_head_the_tear_stays_out_of_the_smiling_cheek():
     """The sample's tear under the left eye of the ICT head, while the cheek rises in a smile
     and a squint (shape keys): never inside the skin."""

@@ -113,10 +113,9 @@ def test_no_drop_for_a_bad_period():
         tears.add_teardrop(bpy.context, face, (0, 0, 0), Every=0.0)
 
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ict_head.npz"
+DATA = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 
 
-@pytest.mark.skipif(not DATA.exists(), reason=f"{DATA} not found")
 def test_on_the_scanned_head_the_drop_leaves_from_under_the_chin_and_falls_free():
     """The sample's drop on the ICT head forms where the skin under the chin faces down and
     falls along the world's -Z without touching the skin, over its whole life."""

@@ -5,7 +5,7 @@ References:
 
 * the procedural head (sample_scenes/lib/headgen.py): the generator's own analytic
   landmarks, surface points at fixed (x, z) in its model;
-* the ICT scan (../shared/data/ict_head.npz, skipped when absent): vertex indices picked
+* the ICT scan (the add-on's sample head, wrinkle_addon/data/ict_head.npz): vertex indices picked
   by inspecting the scan in front and side views (a rendered check, once): the nose tip,
   the left mouth corner, the two corners of the left eye (the eye is their midpoint), and
   the frontal vertices at the glabella, the front of the chin, the middle of the hairline
@@ -25,7 +25,7 @@ from sample_scenes.lib import headgen
 from wrinkle_addon.core.muscles import landmark_finder as lf
 from wrinkle_addon.core.muscles import presets
 
-ICT = Path(__file__).resolve().parents[3] / "shared" / "data" / "ict_head.npz"
+ICT = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 ICT_REFERENCE = {  # name -> ICT vertex indices (mean of them)
     "hairline_center": [8254],
     "glabella": [1398],
@@ -47,8 +47,6 @@ def _to_blender(a):
 
 @pytest.fixture(scope="module")
 def ict():
-    if not ICT.exists():
-        pytest.skip("ict_head.npz is not available")
     with np.load(ICT) as data:
         pos = _to_blender(data["positions"])
         keys = {str(n): pos + _to_blender(d)

@@ -1,6 +1,6 @@
 """The landmark finder against an independent reference: ICT-FaceKit's own 68 landmarks
-(iBUG layout, ``../shared/data/ict_head_landmarks.json``) on the ICT head
-(``../shared/data/ict_head.npz``); skipped when either is absent.
+(iBUG layout, ``tests/data/ict_head_landmarks.json``) on the ICT head, the add-on's sample
+head (``wrinkle_addon/data/ict_head.npz``).
 
 Every add-on landmark with a counterpart among the 68 must lie within 5 mm of it, under the
 rules in order (as *Place Landmarks* runs them) and under each rule on its own; the
@@ -23,18 +23,13 @@ import pytest
 from benchmarks import landmarks as bench
 from wrinkle_addon.core.muscles import landmark_finder as lf
 
-DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
-NPZ, JSON = DATA / "ict_head.npz", DATA / bench.REFERENCE_NAME
+NPZ, JSON = bench.DEFAULT_NPZ, bench.DEFAULT_REFERENCE
 GOAL_MM = bench.GOAL_MM
 COMPARED = ("glabella", "brow_outer_L", "eye_L", "nose_tip", "mouth_corner_L", "chin")
 
 
 @pytest.fixture(scope="module")
 def ict():
-    missing = [p.name for p in (NPZ, JSON) if not p.exists()]
-    if missing:
-        pytest.skip(f"{' and '.join(missing)} not available in {DATA} (the ICT head and its "
-                    "landmarks live outside the repository)")
     pos, quads, keys = bench.load_head(NPZ)
     return pos, quads, keys, bench.load_reference(JSON)
 

@@ -151,8 +151,6 @@ def test_head_landmarks_on_surface(head):
 @pytest.mark.parametrize("mesh_name", ["head", "ict"])
 def test_landmarks_mirror_and_order(mesh_name, head):
     if mesh_name == "ict":
-        if not ICT_PATH.exists():
-            pytest.skip("ict_head.npz is not available")
         mesh = ict.load_ict(ICT_PATH)
         tol = 0.004
     else:
@@ -218,7 +216,6 @@ def test_forehead_patch_count(target):
     assert abs(len(mesh["positions"]) - target) <= 0.25 * target
 
 
-@pytest.mark.skipif(not ICT_PATH.exists(), reason="ict_head.npz is not available")
 def test_ict_loader_orientation():
     data = ict.load_ict(ICT_PATH)
     pos = data["positions"]

@@ -1,9 +1,10 @@
-"""tools/ict_to_npz.py: an ICT-FaceKit folder of OBJ files back to ict_head.npz.
+"""tools/ict_to_npz.py: an ICT-FaceKit folder of OBJ files back to the sample head's two files.
 
-The ICT-style folder is written here from the shared ict_head.npz itself, with extra
-vertices and faces after the head (like the full model's mouth socket, eyes and teeth), so
-the round trip checks the cropping, the expression order and the float32 values exactly.
-Pure NumPy; skipped when the shared npz is absent.
+The ICT-style folder is written here from the shipped ict_head.npz and ict_head_parts.npz
+themselves, in the full model's vertex layout (skin, mouth socket, eye sockets, gums, teeth,
+eyeballs, lacrimal fluid, eye blends, occlusion, lashes), the pairs and the eyeball's two
+shells in an order the converter must not rely on, so the round trip checks the cropping,
+the splitting, the naming, the expression order and the values exactly. Pure NumPy.
 """
 
 import importlib.util
@@ -17,21 +18,34 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 TOOL = ROOT / "tools" / "ict_to_npz.py"
-ICT_PATH = ROOT.parent / "shared" / "data" / "ict_head.npz"
+DATA = ROOT / "wrinkle_addon" / "data"
+ICT_PATH = DATA / "ict_head.npz"
+PARTS_PATH = DATA / "ict_head_parts.npz"
 KEYS = ("positions", "quads", "corner_uvs", "expression_names", "expression_deltas")
-EXTRA_VERTICES = 300  # after the head, as the full model's other geometries are
 
 _spec = importlib.util.spec_from_file_location("ict_to_npz", TOOL)
 ict_to_npz = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(ict_to_npz)
 
-needs_npz = pytest.mark.skipif(not ICT_PATH.exists(), reason=f"{ICT_PATH} not found")
+# Where each shipped part goes in the model (ICT's table), written in this order: the right
+# eye's geometries in the first of each pair's ranges, and the eyeball's inner shell first.
+LAYOUT = (("gums_tongue", ("gums_tongue",)), ("teeth", ("teeth",)),
+          ("eyeball_a", ("iris_R", "sclera_R")), ("eyeball_b", ("sclera_L", "iris_L")),
+          ("lacrimal_a", ("lacrimal_R",)), ("lacrimal_b", ("lacrimal_L",)),
+          ("eye_occlusion_a", ("eye_occlusion_L",)), ("eye_occlusion_b", ("eye_occlusion_R",)),
+          ("eyelashes_a", ("eyelashes_R",)), ("eyelashes_b", ("eyelashes_L",)))
 
 
 @pytest.fixture(scope="module")
 def shared():
     with np.load(ICT_PATH) as data:
         return {k: data[k] for k in KEYS}
+
+
+@pytest.fixture(scope="module")
+def shared_parts():
+    with np.load(PARTS_PATH) as data:
+        return {k: data[k] for k in data.files}
 
 
 def _v_lines(points):
@@ -42,44 +56,67 @@ def _v_lines(points):
 HEADER = "# ICT FaceKit (test copy written from ict_head.npz)\nmtllib ICTFaceModelMaterial.mtl\n"
 
 
-def write_checkout(folder, data, names):
+def _model(data, parts):
+    """The full model's neutral positions (float64) and, per expression row, its deltas, with
+    its faces as OBJ lines (1-based ``v/vt``) and the vt list; the geometries the converter
+    drops are filler points with quads among them."""
+    rng = np.random.default_rng(7)
+    pos = [data["positions"].astype(np.float64)]
+    deltas = [data["expression_deltas"].astype(np.float64)]
+    faces, vts = [], [data["corner_uvs"].reshape(-1, 2)]
+    faces += ["f " + " ".join(f"{v + 1}/{4 * i + k + 1}" for k, v in enumerate(q)) + "\n"
+              for i, q in enumerate(data["quads"].tolist())]
+    count = len(pos[0])
+
+    def filler(first, last):
+        nonlocal count
+        assert count == first
+        n = last - first + 1
+        pos.append(rng.normal(0.0, 5.0, (n, 3)))
+        deltas.append(rng.normal(0.0, 0.1, (len(deltas[0]), n, 3)))
+        faces.extend(f"f {first + j + 1} {first + j + 2} {first + j + 3} {first + j + 4}\n"
+                     for j in range(0, n - 4, 4))
+        count += n
+
+    filler(11248, 14061)  # mouth socket and eye sockets
+    nvt = len(vts[0])
+    for geometry, names in LAYOUT:
+        first, last = ict_to_npz.PARTS[geometry]
+        if geometry == "eye_occlusion_a":
+            filler(24999, 25046)  # eye blends
+        assert count == first
+        for name in names:
+            p = {k: parts[f"{name}/{k}"] for k in ict_to_npz.PART_KEYS}
+            pos.append(p["positions"].astype(np.float64))
+            deltas.append(p["expression_deltas"].astype(np.float64))
+            vts.append(p["corner_uvs"])
+            at = np.cumsum(np.concatenate([[0], p["face_sizes"]]))
+            faces.extend("f " + " ".join(f"{count + v + 1}/{nvt + c + 1}"
+                                         for c, v in zip(range(a, b), p["corner_verts"][a:b])) + "\n"
+                         for a, b in zip(at[:-1], at[1:]))
+            count += len(p["positions"])
+            nvt += len(p["corner_uvs"])
+        assert count == last + 1
+    return np.concatenate(pos), np.concatenate(deltas, axis=1), faces, np.concatenate(vts)
+
+
+def write_checkout(folder, data, parts, names):
     """An ICT-FaceKit-like checkout: FaceXModel/ with the neutral OBJ and one OBJ per name."""
     model = folder / "FaceXModel"
     model.mkdir(parents=True)
     (folder / "LICENSE").write_text("MIT License (test copy)\n")
-    pos, quads, uvs = data["positions"], data["quads"], data["corner_uvs"]
-    n = len(pos)
-    rng = np.random.default_rng(7)
-    extra = rng.normal(0.0, 5.0, (EXTRA_VERTICES, 3)).astype(np.float32)
-    neutral = np.concatenate([pos, extra]).astype(np.float64)
-
-    # One vt per head corner (1-based ids), then a few for the extra faces.
-    vt = uvs.reshape(-1, 2).astype(np.float64)
-    head_faces = [
-        "f " + " ".join(f"{v + 1}/{4 * i + k + 1}" for k, v in enumerate(q)) + "\n"
-        for i, q in enumerate(quads.tolist())
-    ]
-    t0 = len(vt) + 1  # the extra faces use vt t0..t0+3
-    extra_ids = np.arange(n, n + EXTRA_VERTICES) + 1
-    quads_extra = [
-        "f " + " ".join(f"{v}/{t0 + k}/1" for k, v in enumerate(extra_ids[j:j + 4])) + "\n"
-        for j in range(0, EXTRA_VERTICES - 4, 4)
-    ]
-    triangle = f"f {extra_ids[0]} {extra_ids[1]} {extra_ids[2]}\n"  # teeth-like triangle, no UVs
-    mixed = f"f {quads[0, 0] + 1}/1 {quads[0, 1] + 1}/2 {extra_ids[5]}/3 {extra_ids[6]}/4\n"
+    neutral, deltas, faces, vt = _model(data, parts)
+    n = len(data["positions"])
+    mixed = f"f {data['quads'][0, 0] + 1}/1 {data['quads'][0, 1] + 1}/2 {n + 5}/3 {n + 6}/4\n"
     text = [HEADER, _v_lines(neutral)]
-    text += ["".join(f"vt {u!r} {w!r}\n" for u, w in vt.tolist()), "vt 0.25 0.5\n" * 4, "vn 0 0 1\n"]
-    text += ["g head\nusemtl skin\n", triangle]  # a face outside the head before it ...
-    text += head_faces[:1000] + [mixed] + head_faces[1000:]  # ... one mixing both inside it ...
-    text += ["g socket\n"] + quads_extra  # ... and the rest after it, as in the real file
+    text += ["".join(f"vt {u!r} {w!r}\n" for u, w in vt.astype(np.float64).tolist()), "vn 0 0 1\n"]
+    text += ["g head\nusemtl skin\n", f"f {n + 1} {n + 2} {n + 3}\n"]  # a face outside the head first ...
+    text += faces[:1000] + [mixed] + faces[1000:]  # ... one mixing the skin and the socket ...
     (model / "generic_neutral_mesh.obj").write_text("".join(text))
 
     order = list(data["expression_names"])
     for name in names:
-        delta = data["expression_deltas"][order.index(name)].astype(np.float64)
-        target = neutral.copy()
-        target[:n] += delta
-        target[n:] += rng.normal(0.0, 0.1, (EXTRA_VERTICES, 3))  # the eyes move too
+        target = neutral + deltas[order.index(name)]
         (model / f"{name}.obj").write_text(HEADER + _v_lines(target))
     # Files the converter must ignore.
     (model / "identity000.obj").write_text(HEADER + "v 1 2 3\n")
@@ -88,46 +125,78 @@ def write_checkout(folder, data, names):
 
 
 @pytest.fixture(scope="module")
-def checkout(tmp_path_factory, shared):
-    if not ICT_PATH.exists():
-        pytest.skip(f"{ICT_PATH} not found")
-    return write_checkout(tmp_path_factory.mktemp("ICT-FaceKit"), shared, ict_to_npz.EXPRESSIONS)
+def checkout(tmp_path_factory, shared, shared_parts):
+    return write_checkout(tmp_path_factory.mktemp("ICT-FaceKit"), shared, shared_parts,
+                          ict_to_npz.EXPRESSIONS)
 
 
 def assert_same(got, want):
-    assert set(got) == set(KEYS)
-    for key in KEYS:
+    assert set(got) == set(want)
+    for key in want:
         assert got[key].dtype == want[key].dtype, key
         assert got[key].shape == want[key].shape, key
         assert np.array_equal(got[key], want[key]), key
 
 
-@needs_npz
 def test_expression_order_is_the_shared_files(shared):
     assert tuple(shared["expression_names"]) == ict_to_npz.EXPRESSIONS
     assert list(ict_to_npz.EXPRESSIONS) == sorted(ict_to_npz.EXPRESSIONS)
     assert len(shared["positions"]) == ict_to_npz.HEAD_VERTICES
 
 
-@needs_npz
-def test_round_trip_all_expressions(checkout, shared, tmp_path):
+def _read(path):
+    with np.load(path) as data:
+        return {k: data[k] for k in data.files}
+
+
+def test_round_trip_all_expressions(checkout, shared, shared_parts, tmp_path):
     out = tmp_path / "out" / "ict_head.npz"
-    arrays = ict_to_npz.convert(checkout, out)
-    assert_same(arrays, shared)
-    with np.load(out) as data:
-        assert_same({k: data[k] for k in data.files}, shared)
+    skin, parts = ict_to_npz.convert(checkout, out)
+    assert_same(skin, shared)
+    assert_same(parts, shared_parts)
+    assert_same(_read(out), shared)
+    assert_same(_read(tmp_path / "out" / "ict_head_parts.npz"), shared_parts)
     assert out.with_suffix(".LICENSE").read_text() == "MIT License (test copy)\n"
 
 
-@needs_npz
+def test_repack_checks_and_rewrites_the_shipped_pair(tmp_path, shared, shared_parts):
+    out = tmp_path / "again" / "ict_head.npz"
+    run = _cli("--repack", DATA, "-o", out)
+    assert run.returncode == 0, run.stderr
+    assert_same(_read(out), shared)
+    assert_same(_read(tmp_path / "again" / "ict_head_parts.npz"), shared_parts)
+    assert out.with_suffix(".LICENSE").read_bytes() == (DATA / "ict_head.LICENSE").read_bytes()
+
+
+def test_repack_refuses_a_wrong_layout(tmp_path, shared, shared_parts):
+    bad = dict(shared_parts)
+    bad["teeth/expression_deltas"] = bad["teeth/expression_deltas"].astype(np.float32)
+    np.savez(tmp_path / "ict_head.npz", **shared)
+    np.savez(tmp_path / "ict_head_parts.npz", **bad)
+    run = _cli("--repack", tmp_path, "-o", tmp_path / "out" / "x.npz")
+    assert run.returncode == 1 and "Traceback" not in run.stderr
+    assert "teeth/expression_deltas is float32 (53, 4412, 3), expected float16" in run.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_sides_and_shells_are_named_by_position(shared_parts):
+    for side, sign in (("L", 1.0), ("R", -1.0)):
+        for part in ("sclera", "iris", "lacrimal", "eye_occlusion", "eyelashes"):
+            assert sign * shared_parts[f"{part}_{side}/positions"][:, 0].mean() > 0
+        outer = shared_parts[f"sclera_{side}/positions"]
+        inner = shared_parts[f"iris_{side}/positions"]
+        centre = inner.mean(axis=0)
+        assert np.linalg.norm(outer - centre, axis=1).mean() > np.linalg.norm(inner - centre, axis=1).mean()
+
+
 def test_command_line(checkout, shared, tmp_path):
     out = tmp_path / "head.npz"
     run = subprocess.run([sys.executable, str(TOOL), str(checkout), "-o", str(out)],
                          capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     assert f"wrote {out}: 11248 vertices, 11144 quads, 53 expressions" in run.stdout
-    with np.load(out) as data:
-        assert_same({k: data[k] for k in data.files}, shared)
+    assert "ict_head_parts.npz" not in run.stdout and "head_parts.npz: 12 parts, 12609 vertices" in run.stdout
+    assert_same(_read(out), shared)
 
 
 def _cli(*args):
@@ -155,7 +224,6 @@ def test_missing_obj(tmp_path):
         ict_to_npz.build_arrays(tmp_path)
 
 
-@needs_npz
 def test_wrong_vertex_count(checkout, tmp_path):
     model = tmp_path / "FaceXModel"
     model.mkdir()
@@ -166,7 +234,7 @@ def test_wrong_vertex_count(checkout, tmp_path):
     bad.write_text("v 0 0 0\n" * 20)
     run = _cli(tmp_path, "-q", "-o", tmp_path / "x.npz")
     assert run.returncode == 1 and "Traceback" not in run.stderr
-    assert f"{bad}: 20 vertices, but generic_neutral_mesh.obj has 11548" in run.stderr
+    assert f"{bad}: 20 vertices, but generic_neutral_mesh.obj has 26719" in run.stderr
 
 
 def test_malformed_line(tmp_path):
