@@ -5,7 +5,6 @@ from pathlib import Path
 
 import bpy
 import numpy as np
-import pytest
 
 from tests.blender import scenes
 from wrinkle_addon.core.muscles import refinement

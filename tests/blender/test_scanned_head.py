@@ -1,6 +1,4 @@
-"""The scanned ICT head (the add-on's sample head, wrinkle_addon/data/ict_head.npz): wrinkles from measured compression alone.
-
-Skipped when the data file is absent; the project never ships a copy of it.
+"""The scanned ICT head (the add-on's sample head): wrinkles from measured compression alone.
 """
 
 from pathlib import Path

@@ -15,7 +15,6 @@ follow the features, not the sample head's proportions.  The finder itself never
 reference.
 """
 
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -41,5 +41,25 @@ class VIEW3D_PT_wrinkle_face(bpy.types.Panel):
             row.operator("wrinkle.free_bake", icon="TRASH")
 
 
-classes = (VIEW3D_PT_wrinkle_face,)
+class VIEW3D_PT_wrinkle_start(bpy.types.Panel):
+    """What the tab shows with no face selected: how to start, and the sample head."""
+
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Wrinkles"
+    bl_label = "Expression Wrinkles"
+
+    @classmethod
+    def poll(cls, context):
+        return panel_face(context) is None
+
+    def draw(self, context):
+        layout = self.layout
+        col = layout.column(align=True)
+        col.label(text="Select a face mesh to give it wrinkles,")
+        col.label(text="or try them on the sample head:")
+        layout.operator("wrinkle.add_sample_head", icon="USER")
+
+
+classes = (VIEW3D_PT_wrinkle_face, VIEW3D_PT_wrinkle_start)
 register, unregister = bpy.utils.register_classes_factory(classes)
