@@ -25,7 +25,11 @@ if str(ROOT) not in sys.path:
 
 import bpy  # noqa: E402, I001
 
-from sample_scenes import demo, scanned_head  # noqa: E402  (demo enables the add-on)
+from sample_scenes.lib import rendering  # noqa: E402
+
+rendering.enable_addon()  # before the scenes import the add-on's modules
+
+from sample_scenes import scanned_head  # noqa: E402
 from sample_scenes.lib import headgen, ict, rigging, scene_setup  # noqa: E402
 
 BROW_RAISE = {"browInnerUp_L": 1.0, "browInnerUp_R": 1.0, "browOuterUp_L": 1.0, "browOuterUp_R": 1.0}
@@ -80,11 +84,11 @@ def main(argv=None):
         jobs.insert(0, ("ict", build_ict))
     rows, captions = [], []
     for name, builder in jobs:
-        row, row_captions = demo.render_scene(name, builder, out, args.size, args.samples)
+        row, row_captions = rendering.render_scene(name, builder, out, args.size, args.samples)
         rows.append(row)
         captions.append(row_captions)
-    demo.contact_sheet(rows, out / "expressions.png", row_names=[j[0] for j in jobs], captions=captions)
-    demo.log(f"contact sheet -> {out / 'expressions.png'}")
+    rendering.contact_sheet(rows, out / "expressions.png", row_names=[j[0] for j in jobs], captions=captions)
+    rendering.log(f"contact sheet -> {out / 'expressions.png'}")
     bpy.ops.wm.read_factory_settings(use_empty=True)  # avoids the bpy 4.5 exit hang
 
 

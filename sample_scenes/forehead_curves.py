@@ -211,7 +211,9 @@ def build_muscles():
 
 
 def main(argv=None):
-    from sample_scenes import demo  # enables the add-on
+    from sample_scenes.lib import rendering
+
+    rendering.enable_addon()
 
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -223,15 +225,16 @@ def main(argv=None):
         raise SystemExit(f"forehead_curves: {DATA} not found")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [("forehead_curves", build, toggle), ("forehead_muscles", build_muscles, demo.geometric_toggle)]
+    jobs = [("forehead_curves", build, toggle),
+            ("forehead_muscles", build_muscles, rendering.geometric_toggle)]
     rows, captions = [], []
     for name, builder, switch in jobs:
-        row, row_captions = demo.render_scene(name, builder, out, args.size, args.samples, switch)
+        row, row_captions = rendering.render_scene(name, builder, out, args.size, args.samples, switch)
         rows.append(row)
         captions.append(row_captions)
     sheet = out / "forehead_curves.png"
-    demo.contact_sheet(rows, sheet, row_names=[j[0] for j in jobs], captions=captions)
-    demo.log(f"contact sheet -> {sheet}")
+    rendering.contact_sheet(rows, sheet, row_names=[j[0] for j in jobs], captions=captions)
+    rendering.log(f"contact sheet -> {sheet}")
     bpy.ops.wm.read_factory_settings(use_empty=True)  # avoids the bpy 4.5 exit hang
 
 

@@ -195,7 +195,9 @@ def toggle(face, on):
 
 
 def main(argv=None):
-    from sample_scenes import demo  # enables the add-on
+    from sample_scenes.lib import rendering
+
+    rendering.enable_addon()
 
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -205,10 +207,10 @@ def main(argv=None):
     args = parser.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    row, captions = demo.render_scene("hand", build, out, args.size, args.samples, toggle)
+    row, captions = rendering.render_scene("hand", build, out, args.size, args.samples, toggle)
     sheet = out / "hand.png"
-    demo.contact_sheet([row], sheet, row_names=["hand"], captions=[captions])
-    demo.log(f"contact sheet -> {sheet}")
+    rendering.contact_sheet([row], sheet, row_names=["hand"], captions=[captions])
+    rendering.log(f"contact sheet -> {sheet}")
     bpy.ops.wm.read_factory_settings(use_empty=True)  # avoids the bpy 4.5 exit hang
 
 

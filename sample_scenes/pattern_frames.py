@@ -16,7 +16,7 @@ import numpy as np
 from mathutils import Vector
 
 from sample_scenes import patterns
-from sample_scenes.lib import scene_setup
+from sample_scenes.lib import rendering, scene_setup
 from wrinkle_addon.core.patterns import functions
 
 SMILE_FRAMES = (1, 8, 14, 20)
@@ -67,7 +67,7 @@ def cases():
     return out + [(f"tear_{head}", builder, "tear", TEAR_FRAMES)]
 
 
-def render(out, size, samples, log=print, quiet=None, only=None):
+def render(out, size, samples, progress=None, only=None):
     """Render every case's four frames into ``out`` (or only the cases named in ``only``);
     returns the rows of image paths and their captions, for a contact sheet.  The pattern
     close-ups of one head share its scene; the tear's case gets a scene of its own."""
@@ -89,14 +89,8 @@ def render(out, size, samples, log=print, quiet=None, only=None):
         for frame in frames:
             scene.frame_set(frame)
             path = out / f"{name}_{frame:03d}.png"
-            scene.render.filepath = str(path)
-            if quiet is None:
-                bpy.ops.render.render(write_still=True)
-            else:
-                with quiet(out / "render.log"):
-                    bpy.ops.render.render(write_still=True)
+            rendering.render_still(path, progress, f"pattern close-up: {name}, frame {frame}")
             row.append(path)
-        log(f"pattern frames: {name} frames {', '.join(map(str, frames))}")
         rows.append(row)
         captions.append([(f"frame {f}", "") for f in frames])
     return rows, captions

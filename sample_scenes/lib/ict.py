@@ -18,7 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["DEFAULT_PATH", "load_ict", "ict_object"]
+__all__ = ["DEFAULT_PATH", "load_ict", "ict_object", "DRESS"]
+
+#: Whether :func:`ict_object` dresses the head as Add Sample Head does (skin material, eyes,
+#: lashes, teeth): the demo and the showcase switch it on; the tests keep the bare skin.
+DRESS = {"on": False}
 
 DEFAULT_PATH = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 
@@ -116,6 +120,8 @@ def load_ict(path=DEFAULT_PATH):
 
 def ict_object(data, name="ICTHead", collection=None):
     """A mesh object with a Basis shape key and one shape key per expression."""
+    import bpy
+
     from .scene_setup import mesh_object_from_arrays
 
     obj = mesh_object_from_arrays(name, data["positions"], data["quads"], data["corner_uvs"],
@@ -127,4 +133,8 @@ def ict_object(data, name="ICTHead", collection=None):
         key.points.foreach_set("co", (base + delta).astype(np.float32).ravel())
         key.value = 0.0
     obj.data.update()
+    if DRESS["on"]:
+        from wrinkle_addon.glue import sample_head
+
+        sample_head.dress(obj, collection or bpy.context.scene.collection, landmarks=data["landmarks"])
     return obj

@@ -146,8 +146,8 @@ def add_portrait_rig(scene, target_object, view="front", frame_height=None, mate
     character's left, +X). The key light is a sun from high above and to the
     character's right, grazing the forehead so horizontal furrows and the
     vertical furrows between the brows shade; a large soft fill, a weak rim
-    and a neutral grey world complete it. With ``material`` the object gets
-    the "Skin" material. Returns a dict of the created datablocks.
+    and a neutral grey world complete it. With ``material`` an object with no
+    material yet gets the "Skin" material. Returns a dict of the created datablocks.
     """
     if view not in {"front", "three_quarter"}:
         raise ValueError(f"view must be 'front' or 'three_quarter', not {view!r}")
@@ -212,7 +212,7 @@ def add_portrait_rig(scene, target_object, view="front", frame_height=None, mate
     background.inputs["Strength"].default_value = 0.3
 
     mat = None
-    if material:
+    if material and not any(target_object.data.materials):
         mat = skin_material()
         mats = target_object.data.materials
         if len(mats) == 0:

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..core import skin as core_skin
 from ..core.muscles import landmark_finder
-from . import skin_materials
+from . import meshio, skin_materials
 from .errors import WrinkleError
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -140,13 +140,6 @@ def _follow(parts_ob, skin_ob):
         var.targets[0].data_path = f'key_blocks["{kb.name}"].value'
 
 
-def skin_regions(positions, quads):
-    """The skin's (oil, red, lip) weights (:func:`core.skin.regions`) from its own landmarks
-    (the add-on's finder), and the finder's rule."""
-    found, method, _message = landmark_finder.find_landmarks(positions, quads)
-    return core_skin.regions(positions, found), method
-
-
 def add(collection, name="Sample Head", parts=True, progress=None):
     """Build the sample head in ``collection``; return ``(skin, parts)`` objects (``parts``
     None without them).  ``progress(fraction, message)`` is called along the way."""
@@ -157,23 +150,44 @@ def add(collection, name="Sample Head", parts=True, progress=None):
     step(0.15, "building the skin")
     sizes = np.full(len(s["quads"]), 4, np.int32)
     me = _mesh(name, s["positions"], sizes, s["quads"].ravel(), s["corner_uvs"].reshape(-1, 2))
-    _point_attribute(me, REST_ATTR, s["positions"])
-    regions, _method = skin_regions(s["positions"], s["quads"])
-    _point_attribute(me, REGIONS_ATTR, np.concatenate([regions, np.ones((len(regions), 1), np.float32)], 1))
-    me.materials.append(skin_materials.skin())
     skin_ob = bpy.data.objects.new(name, me)
     collection.objects.link(skin_ob)
     step(0.3, "adding the 53 expressions")
     _shape_keys(skin_ob, s["positions"], s["names"], s["deltas"])
+    step(0.6, "the skin material" + (", the eyes, lashes and teeth" if parts else ""))
+    return skin_ob, dress(skin_ob, collection, parts=parts, data=data)
+
+
+def paint_skin(skin_ob, landmarks=None):
+    """Write the skin's rest positions and regions (oil, red, lip) as the point attributes
+    the skin material reads, from its mesh as it is (after a refinement too); ``landmarks``
+    (face space) default to the add-on's finder's."""
+    me = skin_ob.data
+    co = np.empty(len(me.vertices) * 3, np.float32)
+    me.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    if landmarks is None:
+        landmarks, _method, _message = landmark_finder.find_landmarks(co, meshio.read_polygons(me))
+    regions = core_skin.regions(co, landmarks)
+    _point_attribute(me, REST_ATTR, co)
+    _point_attribute(me, REGIONS_ATTR, np.concatenate([regions, np.ones((len(regions), 1), np.float32)], 1))
+
+
+def dress(skin_ob, collection, parts=True, data=None, landmarks=None):
+    """Give the sample head's skin object (ICT's vertices, in ICT's order, with its
+    expression shape keys) the skin material, and with ``parts`` its eyes, lashes and teeth,
+    parented and driven by its keys; return the parts object (or None)."""
+    paint_skin(skin_ob, landmarks)
+    skin_ob.data.materials.clear()
+    skin_ob.data.materials.append(skin_materials.skin())
     if not parts:
-        step(1.0, "done")
-        return skin_ob, None
-    step(0.7, "building the eyes, lashes and teeth")
-    parts_ob = _parts_object(f"{name} Eyes and Mouth", data["parts"], s["names"], collection)
+        return None
+    data = data or load()
+    names = data["skin"]["names"]
+    parts_ob = _parts_object(f"{skin_ob.name} Eyes and Mouth", data["parts"], names, collection)
     parts_ob.parent = skin_ob
     _follow(parts_ob, skin_ob)
-    step(1.0, "done")
-    return skin_ob, parts_ob
+    return parts_ob
 
 
 def _parts_object(name, parts, names, collection):
