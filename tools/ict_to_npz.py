@@ -63,7 +63,8 @@ also the order of the ``expressions`` list in ICT's ``FaceXModel/vertex_indices.
 The deltas are computed from the text in double precision, then stored as float32 (skin)
 or float16 (parts, which only follow the blinks and the jaw).
 
-Only the standard library and NumPy are needed (no Blender). User errors (a missing
+Only the standard library and NumPy are needed (no Blender; the add-on's pure-NumPy
+``core.skin.components`` splits the eyeballs). User errors (a missing
 folder or OBJ, a wrong vertex count, a malformed line) print one message and exit with
 status 1.
 """
@@ -76,6 +77,9 @@ import sys
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from wrinkle_addon.core.skin import components  # noqa: E402  (pure NumPy: no Blender needed)
 
 __all__ = ["EXPRESSIONS", "HEAD_VERTICES", "PARTS", "PART_NAMES", "ConversionError", "convert", "repack",
            "build_arrays", "check_skin", "check_parts", "main"]
@@ -258,20 +262,6 @@ def _part_faces(polys, uvs, first, last, path):
     return np.array(sizes, np.int32), np.array(verts, np.int32), np.array(uv_index, np.int64)
 
 
-def _components(count, sizes, corner_verts):
-    """Each vertex's connected component (0, 1, ...), by propagating the least index."""
-    face = np.repeat(np.arange(len(sizes)), sizes)
-    label = np.arange(count)
-    while True:
-        low = np.full(len(sizes), count)
-        np.minimum.at(low, face, label[corner_verts])
-        new = label.copy()
-        np.minimum.at(new, corner_verts, low[face])
-        if np.array_equal(new, label):
-            return np.unique(label, return_inverse=True)[1]
-        label = new
-
-
 def _subset(part, keep):
     """The vertices ``keep`` (bool mask) of a part and the faces all of whose corners they hold."""
     sizes, corner_verts = part["face_sizes"], part["corner_verts"]
@@ -304,7 +294,7 @@ def _parts(neutral, uvs, polys, deltas, path):
         base = name[:-2] if paired else name
         pieces = {base: part}
         if base == "eyeball":  # two shells: the outer (cornea's bulge) and the inner (iris)
-            label = _components(len(part["positions"]), sizes, corner_verts)
+            label = components(len(part["positions"]), sizes, corner_verts)
             if label.max() != 1:
                 raise ConversionError(f"{path}: the eyeball at vertices {first}..{last} should be two "
                                       f"shells, found {label.max() + 1}")
