@@ -1,6 +1,6 @@
 """The demo: build the sample scenes and render them with Cycles.
 
-    python sample_scenes/demo.py [--out out] [--size 512] [--samples 32] [--quick]
+    python sample_scenes/demo.py [--out out] [--size 384] [--samples 24] [--quick]
 
 First the showcase (``sample_scenes/showcase.py``): every method on the sample head through
 six beats, neutral, surprise, anger, surprise with anger, smile, sadness with tears. Each
@@ -61,8 +61,8 @@ JOBS = (("scanned_head", scanned_head.build, rendering.geometric_toggle, scanned
         ("hand", hand_scene.build, hand_scene.toggle, hand_scene.SHOTS),
         ("patterns", patterns_scene.build, patterns_scene.toggle, patterns_scene.SHOTS))
 CLIP_STEP = 2  # every other frame: a 12 fps clip
-CLIP_SIZE = 320
-CLIP_SAMPLES = 16
+CLIP_SIZE = 256
+CLIP_SAMPLES = 12
 
 
 def stage_timings(scene):
@@ -133,8 +133,8 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", default=str(ROOT / "out"), help="output folder")
-    parser.add_argument("--size", type=int, default=512, help="render size in pixels")
-    parser.add_argument("--samples", type=int, default=32, help="Cycles samples")
+    parser.add_argument("--size", type=int, default=384, help="render size in pixels")
+    parser.add_argument("--samples", type=int, default=24, help="Cycles samples")
     parser.add_argument("--quick", action="store_true",
                         help="only the showcase's front stills, 160 px, 6 samples (under two minutes)")
     args = parser.parse_args(argv)
