@@ -215,16 +215,19 @@ def _plain(color, roughness, **inputs):
 
 
 LASHES_PER_UV = 260.0  # hairs per unit of the lash cards' U (along the lid)
+LASH_BANDS = 6  # ICT's lash cards each take one sixth of V, from 0.01 to 0.15 of it
 
 
-def _lash_builder(per_uv, length, root=0.2):
-    return lambda mat, b, out: _build_lashes(mat, b, out, per_uv, length, root)
+def _lash_builder(per_uv, root, tip_at_low_v):
+    return lambda mat, b, out: _build_lashes(mat, b, out, per_uv, root, tip_at_low_v)
 
 
-def _build_lashes(mat, b, out, per_uv, length, root):
-    """The lash cards cut into hairs: thin strands across the card (its U runs along the lid,
-    its V along the hairs), ``per_uv`` of them per unit of U, a little irregularly spaced,
-    tapering to their tips at ``length`` (a fraction of the card's V); clear between."""
+def _build_lashes(mat, b, out, per_uv, root, tip_at_low_v):
+    """The lash cards cut into hairs: thin strands across each card (its U runs along the
+    lid, its V along the hairs, each card in its own band of V), ``per_uv`` of them per unit
+    of U, a little irregularly spaced, ``root`` hair spacings wide at the lid and tapering to
+    nothing at the tip (at the band's low V for the lower lashes, which hang down); clear
+    between."""
     uv = b.separate(b.node("ShaderNodeUVMap", uv_map="UVMap").outputs["UV"])
     jitter = b.node("ShaderNodeTexNoise", noise_dimensions="1D")
     b.link(b.math("MULTIPLY", uv[0], 40.0), jitter.inputs["W"])
@@ -232,8 +235,11 @@ def _build_lashes(mat, b, out, per_uv, length, root):
     shift = b.math("MULTIPLY", jitter.outputs["Fac"], 1.5)
     phase = b.math("FRACT", b.math("MULTIPLY_ADD", uv[0], per_uv, shift))
     off = b.math("ABSOLUTE", b.math("SUBTRACT", phase, 0.5))
-    # half-width in hair spacings: ``root`` at the root, narrowing to nothing at ``length``
-    width = b.math("MULTIPLY_ADD", uv[1], -root / length, root)
+    band = b.math("FRACT", b.math("MULTIPLY", uv[1], float(LASH_BANDS)))  # 0.06 .. 0.9 on a card
+    along = b.math("MULTIPLY", b.math("SUBTRACT", band, 0.06), 1.0 / 0.84, clamp=True)  # 0 .. 1
+    if tip_at_low_v:
+        along = b.math("SUBTRACT", 1.0, along)
+    width = b.math("MULTIPLY", b.math("SUBTRACT", 1.0, along), root)  # from the root to the tip
     hair = b.math("SUBTRACT", 1.0, b.math("MULTIPLY", b.math("SUBTRACT", off, width), 30.0, clamp=True))
     b.x = 600
     bsdf = _principled(b, (0.012, 0.008, 0.006), 0.45)
@@ -249,12 +255,12 @@ def _build_lashes(mat, b, out, per_uv, length, root):
 
 def lashes():
     """The upper lashes."""
-    return _material("Sample Lashes", _lash_builder(LASHES_PER_UV, 1.0))
+    return _material("Sample Lashes", _lash_builder(LASHES_PER_UV, 0.22, False))
 
 
 def lower_lashes():
-    """The lower lashes: sparser and shorter than the upper ones."""
-    return _material("Sample Lower Lashes", _lash_builder(0.2 * LASHES_PER_UV, 1.0, 0.1))
+    """The lower lashes: sparse, fine, hanging down from the lid."""
+    return _material("Sample Lower Lashes", _lash_builder(0.12 * LASHES_PER_UV, 0.12, True))
 
 
 def teeth():
