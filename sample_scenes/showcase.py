@@ -82,12 +82,13 @@ def build(maps=True, fine=True, map_resolution="1024", fine_resolution="1024"):
 
     scene = bpy.context.scene
     scene.render.fps = FPS
+    dressed = ict.DRESS["on"]
     ict.DRESS["on"] = True
     try:
         data = ict.load_ict()
         face = ict.ict_object(data, name="Sample Head")
     finally:
-        ict.DRESS["on"] = False
+        ict.DRESS["on"] = dressed
     lm = data["landmarks"]
     rendering.log("showcase: the sample head dressed")
     scene_setup.add_portrait_rig(scene, face, frame_scale=1.35)
