@@ -110,12 +110,9 @@ def _mesh(name, positions, sizes, corner_verts, corner_uvs):
 
 
 def _point_attribute(me, name, values):
+    """Write (N, 3) ``values`` as the point vector attribute ``name`` (``meshio.point_attribute``)."""
     values = np.ascontiguousarray(values, np.float32)
-    kind = {3: "FLOAT_VECTOR", 4: "FLOAT_COLOR"}[values.shape[1]]
-    if name in me.attributes:
-        me.attributes.remove(me.attributes[name])
-    attr = me.attributes.new(name, kind, "POINT")
-    attr.data.foreach_set("color" if kind == "FLOAT_COLOR" else "vector", values.ravel())
+    meshio.point_attribute(me, name, "FLOAT_VECTOR").data.foreach_set("vector", values.ravel())
 
 
 def _shape_keys(ob, base, names, deltas):
@@ -170,7 +167,7 @@ def paint_skin(skin_ob, landmarks=None):
         landmarks, _method, _message = landmark_finder.find_landmarks(co, meshio.read_polygons(me))
     regions = core_skin.regions(co, landmarks)
     _point_attribute(me, REST_ATTR, co)
-    _point_attribute(me, REGIONS_ATTR, np.concatenate([regions, np.ones((len(regions), 1), np.float32)], 1))
+    _point_attribute(me, REGIONS_ATTR, regions)
 
 
 def dress(skin_ob, collection, parts=True, data=None, landmarks=None):
