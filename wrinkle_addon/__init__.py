@@ -12,7 +12,7 @@ _MODULES = ()
 
 
 def _modules():
-    from . import props, sources
+    from . import cli, props, sources
     from .glue import frame
     from .ops import bando, convert, face, mapbake, maps, muscles, patterns, sample_head
     from .ui import bando as bando_ui
@@ -22,7 +22,7 @@ def _modules():
     from .ui import patterns as patterns_ui
 
     return (props, frame, face, muscles, maps, convert, mapbake, bando, patterns, sample_head, muscles_ui,
-            maps_ui, bando_ui, patterns_ui, panels, draw, sources)
+            maps_ui, bando_ui, patterns_ui, panels, draw, sources, cli)
 
 
 def register():

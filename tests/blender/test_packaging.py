@@ -36,12 +36,18 @@ result["check"] = list(addon_utils.check(name))
 result["in_preferences"] = name in bpy.context.preferences.addons
 result["addon_enabled_flag"] = bool(getattr(mod, "__addon_enabled__", False))
 result["module_file"] = getattr(mod, "__file__", None)
+# the batch command, as `blender -c ewrinkles ...` reaches it in the installed extension
+cli = sys.modules.get(name + ".cli")
+result["cli_registered"] = cli is not None and cli._handle[0] is not None
+result["cli_help"] = cli.execute(["--help"]) if cli else None
+result["cli_missing_file"] = cli.execute(["check", "/nonexistent/shot.blend"]) if cli else None
 
 errors = []
 addon_utils.disable(name, default_set=True, handle_error=lambda ex: errors.append(
     "".join(traceback.format_exception(type(ex), ex, ex.__traceback__))))
 result["unregister_errors"] = errors
 result["check_after_disable"] = list(addon_utils.check(name))
+result["cli_after_disable"] = cli is not None and cli._handle[0] is not None
 # Leave factory state before exiting: avoids the bpy 4.5 exit hang (tests/conftest.py).
 bpy.ops.wm.read_factory_settings(use_empty=True)
 print("WRINKLE_RESULT " + json.dumps(result), flush=True)
@@ -126,3 +132,5 @@ def test_install_from_disk_enables_the_addon(extension_zip, tmp_path):
     assert "Exception in module register()" not in proc.stdout + proc.stderr, output
     assert result["unregister_errors"] == [], output
     assert result["check_after_disable"][1] is False, output
+    assert result["cli_registered"] and result["cli_help"] == 0 and result["cli_missing_file"] == 2, output
+    assert not result["cli_after_disable"], output  # unregister removes the command

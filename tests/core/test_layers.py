@@ -14,6 +14,7 @@ ALLOWED = {
     "ops": {"core", "glue"},
     "ui": {"core", "glue"},
     "sources": {"core", "glue", "props", "ui"},
+    "cli": {"core", "glue"},
 }
 # core sub-packages, one per method: independent of each other
 METHODS = {"muscles", "maps", "bando", "patterns"}

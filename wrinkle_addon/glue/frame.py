@@ -44,6 +44,7 @@ shown in the panel, and a source that raises loses only its own wrinkles for tha
 """
 
 import itertools
+import time
 
 import bpy
 import numpy as np
@@ -444,10 +445,23 @@ def _current_depsgraph(scene, animate=False):
     return dg
 
 
+# Seconds the frame handler has spent since the batch command last reset it: the wrinkle
+# stage's share of a batch frame, which `ewrinkles render --json` reports.
+stage_seconds = [0.0]
+
+
 @persistent
 def on_frame_change_post(scene, depsgraph=None):
     if _in_frame_sync:
         return
+    start = time.perf_counter()
+    try:
+        _frame_change(scene, depsgraph)
+    finally:
+        stage_seconds[0] += time.perf_counter() - start
+
+
+def _frame_change(scene, depsgraph):
     if depsgraph is not None and depsgraph.mode == "VIEWPORT":
         # the depsgraph just evaluated for this frame: write into it, no second evaluation
         update_scene(scene, depsgraph, in_place=True, changes=_frame_changes(depsgraph))

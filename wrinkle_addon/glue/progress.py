@@ -2,7 +2,13 @@
 """The one progress helper: the window manager's progress in the interface, and a line per
 step on the console in background mode (batch jobs, farms)."""
 
+import sys
+
 import bpy
+
+# Where background-mode progress lines go (None: stdout).  The batch command sets stderr,
+# so that its stdout holds only its JSON lines.
+stream = [None]
 
 
 class Progress:
@@ -37,4 +43,4 @@ class Progress:
         if bpy.app.background and not quiet:
             step = f" {done}/{self.total}" if self.total else ""
             print(f"Expression Wrinkles: {self.title}:{step} {int(100 * fraction):3d}% {message}".rstrip(),
-                  flush=True)
+                  flush=True, file=stream[0] or sys.stdout)

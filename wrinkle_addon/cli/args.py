@@ -1,0 +1,124 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The batch command's arguments: the parser, frame ranges and chunks.  Pure Python: no
+Blender, so it is tested in the fast tier."""
+
+import argparse
+
+# The exit codes of `ewrinkles` (README, "Batch rendering and farms")
+OK, FAILED, USAGE, NOT_READY, STOPPED = 0, 1, 2, 3, 130
+
+
+class UsageError(Exception):
+    """A mistake in the command line or its input files: exit 2 with this one line."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # argparse would print the usage and exit the process
+        raise UsageError(f"{self.prog}: {message} (see {self.prog} --help)")
+
+    def exit(self, status=0, message=None):  # --help: print, then stop this command only
+        if message:
+            self._print_message(message)
+        raise SystemExit(status)
+
+
+def frames(text):
+    """The frames of a range expression: "1-48", "7", "1,3,10-12", "1-9:2" (a step), in
+    order, without repeats.  Raises UsageError with what is wrong."""
+    out = []
+    for part in text.replace(" ", "").split(","):
+        step = 1
+        if ":" in part:
+            part, _, by = part.partition(":")
+            if not by.isdigit() or int(by) < 1:
+                raise UsageError(f'bad frame step in "{text}": the step after ":" must be 1 or more')
+            step = int(by)
+        first, dash, last = part[1:].partition("-")  # a leading "-" is a negative frame
+        first = part[0] + first if part else ""
+        try:
+            a = int(first)
+            b = int(last) if dash else a
+        except ValueError:
+            raise UsageError(f'bad frame range "{text}": write frames as 1-48, 7 or 1,3,10-12') from None
+        if b < a:
+            raise UsageError(f'bad frame range "{text}": {a}-{b} ends before it starts')
+        out.extend(range(a, b + 1, step))
+    return list(dict.fromkeys(out))
+
+
+def chunk(text):
+    """(K, N) from "K/N", 1 <= K <= N."""
+    k, slash, n = text.partition("/")
+    if not (slash and k.isdigit() and n.isdigit() and 1 <= int(k) <= int(n)):
+        raise UsageError(f'bad chunk "{text}": write K/N with 1 <= K <= N, e.g. 2/4 for the second of four')
+    return int(k), int(n)
+
+
+def chunk_of(frame_list, k, n):
+    """The K-th of N interleaved parts of ``frame_list``: every N-th frame from the K-th, so
+    that every part samples the whole shot and the parts together hold each frame once."""
+    return frame_list[k - 1::n]
+
+
+def contiguous(frame_list, text):
+    """(first, last) of a range without gaps (a bake covers one), else UsageError."""
+    if frame_list != list(range(frame_list[0], frame_list[-1] + 1)):
+        raise UsageError(f'the bake needs one range without gaps, like 1-48, not "{text}"')
+    return frame_list[0], frame_list[-1]
+
+
+def parser():
+    p = _Parser(prog="ewrinkles", description="Expression Wrinkles batch commands: render a shot, bake it "
+                "for a farm with no add-on, check what it needs, assemble a contact sheet.")
+    sub = p.add_subparsers(dest="command", metavar="{render,bake,check,sheet}")
+    sub.required = True
+
+    look = argparse.ArgumentParser(add_help=False)
+    look.add_argument("--engine", choices=("CYCLES", "EEVEE"), help="the render engine (default: the file's)")
+    look.add_argument("--samples", type=int, help="render samples (default: the file's)")
+    look.add_argument("--resolution", type=int, nargs=2, metavar=("W", "H"),
+                      help="the image size in pixels, at 100%% (default: the file's)")
+
+    def add(name, help_text, *parents):
+        return sub.add_parser(name, help=help_text, description=help_text, parents=list(parents))
+
+    r = add("render", "Render frames of a shot with its live wrinkles. The .blend is never saved.", look)
+    r.add_argument("blend", help="the shot's .blend file")
+    r.add_argument("--frames", help="frames to render, e.g. 1-48 or 1,5,10-12 (default: the scene's range)")
+    r.add_argument("--out", required=True, help="the folder for the frames (frame_0001.png ...)")
+    r.add_argument("--chunk", help="render only the K-th of N interleaved parts of the frames, e.g. 1/4")
+    r.add_argument("--resume", action="store_true",
+                   help="skip frames whose files exist and are complete images")
+    r.add_argument("--json", action="store_true",
+                   help="print one JSON line per finished frame on stdout (frame, file, seconds, stage_ms)")
+    r.add_argument("--contact-sheet", action="store_true",
+                   help="also write contact_sheet.png of the rendered frames into the folder")
+
+    b = add("bake", "Bake for Farm from the shell: the wrinkles of every face baked, saved as a new .blend "
+            "that renders with no add-on. The shot itself is never overwritten.", look)
+    b.add_argument("blend", help="the shot's .blend file")
+    b.add_argument("--frames", help="the range to bake, e.g. 1-48 (default: the scene's range)")
+    b.add_argument("--save-as", help="the baked file to write (default: SHOT_farm.blend beside the shot)")
+
+    c = add("check", "What the shot needs before a farm: its faces, their sources and problems, and whether "
+            "it renders without the add-on (exit 0: ready, 3: not ready).")
+    c.add_argument("blend", help="the shot's .blend file")
+
+    s = add("sheet", "Assemble the contact sheet of rendered frames.")
+    s.add_argument("folder", help="the folder of the frames (frame_0001.png ...)")
+    s.add_argument("--frames", help="the frames to put on the sheet (default: every frame_####.png there)")
+    s.add_argument("--out", help="the sheet to write (default: FOLDER/contact_sheet.png)")
+    s.add_argument("--width", type=int, default=256, help="the width of each frame on the sheet, in pixels")
+    return p
+
+
+def parse(argv):
+    """The parsed arguments, with their values checked; UsageError otherwise."""
+    ns = parser().parse_args(list(argv))
+    if getattr(ns, "samples", None) is not None and ns.samples < 1:
+        raise UsageError("--samples must be 1 or more")
+    if getattr(ns, "resolution", None) is not None and min(ns.resolution) < 4:
+        raise UsageError("--resolution W H must be at least 4 x 4 pixels")
+    if getattr(ns, "width", 8) < 8:
+        raise UsageError("--width must be at least 8 pixels")
+    return ns
