@@ -87,7 +87,10 @@ def test_usage_errors_exit_2_with_one_line_that_says_what_to_fix(tmp_path, capfd
     (tmp_path / "not_a_folder").write_text("a file")
     cases.append((["render", shot, "--out", tmp_path / "not_a_folder" / "o"],
                   "cannot write into the output folder"))
-    bpy.context.scene.render.image_settings.file_format = "FFMPEG"
+    settings = bpy.context.scene.render.image_settings
+    if hasattr(settings, "media_type"):  # Blender 5: movies are a media type
+        settings.media_type = "VIDEO"
+    settings.file_format = "FFMPEG"
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "movie.blend"))
     cases.append((["render", tmp_path / "movie.blend", "--out", tmp_path / "o"], "renders to a movie"))
     (tmp_path / "junk.blend").write_bytes(b"not a blend file")
