@@ -244,3 +244,13 @@ def test_the_pip_bpy_entry_point(tmp_path):
     run = _child("render", shot, "--out", tmp_path / "o", "--frames", "x")
     _stdout, stderr = run.communicate(timeout=300)
     assert run.returncode == cli_args.USAGE and "bad frame range" in stderr
+
+
+def test_check_lists_a_sources_problem(tmp_path, capfd):
+    _shot(tmp_path / "shot.blend")
+    muscle = bpy.data.objects["Face"].ewrinkles_face.muscles[0].object
+    muscle.ewrinkles_muscle.n_wrinkles = 1000  # more than the mesh can show: the panel says so
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "dense.blend"))
+    code, out, _err = _run(capfd, "check", tmp_path / "dense.blend")
+    assert code == cli_args.NOT_READY
+    assert "  Muscles: " in out and "asks for 1000 wrinkles, more than the mesh can show" in out, out
