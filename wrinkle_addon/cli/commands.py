@@ -107,8 +107,6 @@ def _render_one(scene, f, final, tmpdir):
     into ``tmpdir``, then move it to ``final``: a frame file is whole or absent."""
     scene.frame_start = scene.frame_end = f
     scene.render.filepath = str(Path(tmpdir) / "frame_####")
-    scene.render.use_overwrite = True
-    scene.render.use_placeholder = False
     written = Path(scene.render.frame_path(frame=f))
     bpy.ops.render.render(animation=True)
     if not written.is_file():
@@ -138,6 +136,7 @@ def _render(ns, emit):
                          "Output Properties > Output, then encode the frames")
     out = files.writable_folder(ns.out)
     apply_look(scene, ns)
+    scene.render.use_overwrite, scene.render.use_placeholder = True, False  # frames go to a temp folder
     scene.render.filepath = str(out / "frame_####")
     finals = {f: Path(scene.render.frame_path(frame=f)) for f in frame_list}
     todo = [f for f in frame_list if not (ns.resume and finals[f].is_file() and files.complete(finals[f]))]
