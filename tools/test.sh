@@ -2,13 +2,16 @@
 # THE test command (CI runs it through .ci/run):   bash tools/test.sh [extra pytest args]
 #
 # Stages, in order; each prints a header and its duration, and a summary follows:
-#   1. setup .venv45       tools/setup_env.sh 45 (bpy 4.5, Python 3.11); fatal if it fails
-#   2. lint                ruff check (config: ruff.toml)
-#   3. build               tools/build_extension.py: build + validate dist/*.zip
-#   4. core without bpy    tests/core with `import bpy` blocked: core must not need Blender
-#   5. pytest bpy 4.5      tests/ (core + blender)
-#   6. setup .venv52       tools/setup_env.sh 52 (bpy 5.2, Python 3.13); skipped if no 3.13
-#   7. pytest bpy 5.2      tests/ again
+#   1. setup system        tools/setup_system.sh: the Debian packages of the shader tests
+#                          (glslang, spirv-cross, Mesa's EGL/OSMesa); skipped where there
+#                          is no apt outside CI; if it fails, those tests fail (CI) or skip
+#   2. setup .venv45       tools/setup_env.sh 45 (bpy 4.5, Python 3.11); fatal if it fails
+#   3. lint                ruff check (config: ruff.toml)
+#   4. build               tools/build_extension.py: build + validate dist/*.zip
+#   5. core without bpy    tests/core with `import bpy` blocked: core must not need Blender
+#   6. pytest bpy 4.5      tests/ (core + blender)
+#   7. setup .venv52       tools/setup_env.sh 52 (bpy 5.2, Python 3.13); skipped if no 3.13
+#   8. pytest bpy 5.2      tests/ again
 # A failing stage does not stop the later ones (except setup 4.5); the exit status is
 # non-zero if any stage failed. For each pytest stage the summary also gives the counts
 # (passed, failed, skipped ...) and every skip reason with its count, as tests/conftest.py
@@ -147,6 +150,13 @@ core_without_bpy() {
     WRINKLE_NO_BPY=1 run_pytest .venv45/bin/python allow-no-tests -- tests/core "${PYTEST_ARGS[@]}"
 }
 
+setup_system() {
+    bash tools/setup_system.sh </dev/null
+    local rc=$?
+    ((rc == 3)) && return "$SKIPPED" # no apt here (or no root), outside CI
+    return "$rc"
+}
+
 setup52() {
     bash tools/setup_env.sh 52
     local rc=$?
@@ -161,6 +171,7 @@ setup52() {
 trap '[[ -n $PYTEST_PID ]] && kill -KILL "$PYTEST_PID" 2>/dev/null; exit 130' INT TERM
 
 echo "test.sh: repository $ROOT, CI=${CI:-}, $(nproc) cores"
+run_stage "setup system packages" setup_system
 run_stage "setup .venv45 (bpy 4.5)" bash tools/setup_env.sh 45 || {
     echo "test.sh: cannot continue without .venv45."
     exit 1

@@ -14,15 +14,15 @@ _MODULES = ()
 def _modules():
     from . import cli, props, sources
     from .glue import frame
-    from .ops import bando, convert, face, mapbake, maps, muscles, patterns, sample_head
+    from .ops import bando, convert, export, face, mapbake, maps, muscles, patterns, sample_head
     from .ui import bando as bando_ui
     from .ui import draw, panels
     from .ui import maps as maps_ui
     from .ui import muscles as muscles_ui
     from .ui import patterns as patterns_ui
 
-    return (props, frame, face, muscles, maps, convert, mapbake, bando, patterns, sample_head, muscles_ui,
-            maps_ui, bando_ui, patterns_ui, panels, draw, sources, cli)
+    return (props, frame, face, muscles, maps, convert, mapbake, bando, patterns, sample_head, export,
+            muscles_ui, maps_ui, bando_ui, patterns_ui, panels, draw, sources, cli)
 
 
 def register():

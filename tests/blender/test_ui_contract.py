@@ -6,13 +6,14 @@ import numpy as np
 from tests.blender import scenes
 from wrinkle_addon import props
 from wrinkle_addon.ops import convert as convert_ops
+from wrinkle_addon.ops import export as export_ops
 from wrinkle_addon.ops import mapbake
 from wrinkle_addon.ops import maps as map_ops
 from wrinkle_addon.ops import muscles as operators
-from wrinkle_addon.ui import draw
+from wrinkle_addon.ui import draw, panels
 from wrinkle_addon.ui import maps as maps_ui
 
-OPERATORS = [c for mod in (operators, map_ops, convert_ops, mapbake) for c in mod.classes
+OPERATORS = [c for mod in (operators, map_ops, convert_ops, mapbake, export_ops) for c in mod.classes
              if issubclass(c, bpy.types.Operator)]
 
 
@@ -110,6 +111,15 @@ def test_wrinkle_maps_panel_draws_every_control():
         assert {"wrinkle.setup_wrinkle_maps", "wrinkle.bake_wrinkle_map", "wrinkle.generate_masks",
                 "wrinkle.convert_to_derivative", "wrinkle.make_difference_map",
                 "weights", "zone_power", "mask_b"} <= set(layout.drawn)
+
+
+def test_face_panel_offers_the_exports():
+    face = scenes.make_face()
+    bpy.context.view_layer.objects.active = face
+    layout = _Layout()
+    panels.VIEW3D_PT_wrinkle_face.draw(type("P", (), {"layout": layout})(), bpy.context)
+    assert {"wrinkle.export_gltf", "wrinkle.export_usd", "wrinkle.export_wrinkle_package",
+            "wrinkle.import_wrinkle_package"} <= set(layout.drawn)
 
 
 def test_converter_dialogs_draw_their_properties():

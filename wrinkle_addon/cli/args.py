@@ -70,7 +70,7 @@ def contiguous(frame_list, text):
 def parser():
     p = _Parser(prog="ewrinkles", description="Expression Wrinkles batch commands: render a shot, bake it "
                 "for a farm with no add-on, check what it needs, assemble a contact sheet.")
-    sub = p.add_subparsers(dest="command", metavar="{render,bake,check,sheet}")
+    sub = p.add_subparsers(dest="command", metavar="{render,bake,check,sheet,export}")
     sub.required = True
 
     look = argparse.ArgumentParser(add_help=False)
@@ -109,6 +109,26 @@ def parser():
     s.add_argument("--frames", help="the frames to put on the sheet (default: every frame_####.png there)")
     s.add_argument("--out", help="the sheet to write (default: FOLDER/contact_sheet.png)")
     s.add_argument("--width", type=int, default=256, help="the width of each frame on the sheet, in pixels")
+    e = add("export", "Export a face's wrinkles for other tools: glTF (wrinkle morph targets and their "
+            "weights, Blender's glTF exporter), USD (time-sampled points) or the wrinkle-map package "
+            "(wrinkles.json and images, for engine shaders). The .blend is never saved.")
+    e.add_argument("blend", help="the shot's .blend file")
+    e.add_argument("--format", choices=("gltf", "usd", "package"), required=True, help="what to write")
+    e.add_argument("--out", required=True,
+                   help="the file to write (.glb or .gltf; .usd, .usda, .usdc or .usdz) or, for a package, "
+                   "its folder")
+    e.add_argument("--face", help="the face to export (needed when the scene has more than one)")
+    e.add_argument("--frames", help="the range to export, e.g. 1-48 (default: the scene's range)")
+    e.add_argument("--tolerance", type=float, default=0.05,
+                   help="glTF: the largest error of the wrinkle targets, in mm (default 0.05)")
+    e.add_argument("--max-targets", type=int, default=16,
+                   help="glTF: at most this many wrinkle morph targets (default 16)")
+    e.add_argument("--targets", type=int, default=0,
+                   help="glTF: exactly this many wrinkle morph targets (default 0: the fewest within "
+                   "the tolerance)")
+    e.add_argument("--image-format", choices=("PNG", "OPEN_EXR"), default="PNG",
+                   help="package: the images' format (default PNG, 16-bit)")
+    e.add_argument("--json", action="store_true", help="print the export's report as one JSON line on stdout")
     return p
 
 
@@ -119,6 +139,10 @@ def parse(argv):
         raise UsageError("--samples must be 1 or more")
     if getattr(ns, "resolution", None) is not None and min(ns.resolution) < 4:
         raise UsageError("--resolution W H must be at least 4 x 4 pixels")
+    if getattr(ns, "tolerance", 0.0) < 0.0:
+        raise UsageError("--tolerance must be 0 or more millimetres")
+    if getattr(ns, "max_targets", 1) < 1 or getattr(ns, "targets", 0) < 0:
+        raise UsageError("--max-targets must be 1 or more and --targets 0 or more")
     if getattr(ns, "width", 8) < 8:
         raise UsageError("--width must be at least 8 pixels")
     return ns

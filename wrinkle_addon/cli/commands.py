@@ -152,7 +152,7 @@ class _Results:
     The context gives ``emit(record)``: a dict as one JSON line, a string as is."""
 
     def __init__(self, on=True):
-        self.on, self.saved, self.out = on, None, None
+        self.on, self.saved, self.out, self.python_stdout = on, None, None, None
 
     def __enter__(self):
         if not self.on:
@@ -161,6 +161,7 @@ class _Results:
         self.saved = os.dup(1)
         self.out = os.fdopen(os.dup(self.saved), "w", buffering=1)
         os.dup2(2, 1)
+        self.python_stdout, sys.stdout = sys.stdout, sys.stderr  # print() of Blender's Python exporters
         return self._emit
 
     def _emit(self, record):
@@ -170,6 +171,7 @@ class _Results:
     def __exit__(self, *exc):
         if self.saved is not None:
             sys.stdout.flush()
+            sys.stdout = self.python_stdout
             os.dup2(self.saved, 1)
             os.close(self.saved)
             self.out.close()
@@ -362,4 +364,54 @@ def sheet(ns):
     return OK
 
 
-COMMANDS = {"render": render, "bake": bake, "check": check, "sheet": sheet}
+def export(ns):
+    with _Results(ns.json) as emit:
+        return _export(ns, emit)
+
+
+def _export(ns, emit):
+    from ..glue.errors import WrinkleError
+    from ..glue.export import gltf, package, usd
+    from ..glue.progress import Progress
+
+    path = _open(ns.blend)
+    scene = bpy.context.scene
+    found = faces(scene)
+    if ns.face:
+        found = [ob for ob in found if ob.name == ns.face]
+        if not found:
+            raise UsageError(f'{path.name} has no face "{ns.face}" with wrinkles or wrinkle maps')
+    if not found:
+        raise UsageError(f"{path.name} has no face with wrinkles or wrinkle maps")
+    if len(found) > 1:
+        names = ", ".join(f'"{ob.name}"' for ob in found)
+        raise UsageError(f"{path.name} has {len(found)} faces ({names}): pick one with --face")
+    face = found[0]
+    start, end = cli_args.contiguous(*_frames(ns, scene))
+    out = str(Path(ns.out).expanduser().resolve())
+    say(f'exporting "{face.name}", frames {start}-{end}, as {ns.format} to {out}')
+    try:
+        with Progress(None, f"Export {ns.format} {face.name}", total=end - start + 1, every=10) as progress:
+            if ns.format == "gltf":
+                report = gltf.export(bpy.context, face, out, start, end, ns.tolerance, ns.max_targets,
+                                     ns.targets, lambda f: progress(f * (end - start + 1)))
+            elif ns.format == "usd":
+                report = usd.export(bpy.context, face, out, start, end)
+            else:
+                report = package.write(bpy.context, face, out, start, end, ns.image_format, progress)
+    except WrinkleError as exc:
+        raise UsageError(f'"{face.name}": {exc}') from None
+    if ns.format == "gltf":
+        say(f"{report['targets']} wrinkle targets, largest error {report['max_error_mm']:.4f} mm, "
+            f"mean {report['mean_error_mm']:.4f} mm")
+        if not report["within_tolerance"]:
+            say(f"warning: {report['max_error_mm']:.4f} mm is more than the tolerance of {ns.tolerance:g} "
+                "mm: "
+                "raise --max-targets or --tolerance")
+    if ns.json:
+        emit(json.dumps({"face": face.name, "format": ns.format, **report}))
+    say(f"wrote {out}")
+    return OK
+
+
+COMMANDS = {"render": render, "bake": bake, "check": check, "sheet": sheet, "export": export}

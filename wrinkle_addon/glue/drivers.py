@@ -42,3 +42,16 @@ def drive(owner, path, id_type, target, data_path, gain=None):
         drv.type = "SCRIPTED"
         drv.expression = f"value*{gain:.6g}"
     return fc
+
+
+def action_fcurves(id_data):
+    """The F-curves of ``id_data``'s action (keyframes, not drivers), on Blender 4.x and
+    5.x alike (5.x keeps them in the slot's channel bag); an empty list when it has none."""
+    ad = id_data.animation_data
+    if ad is None or ad.action is None:
+        return []
+    from bpy_extras import anim_utils
+
+    slot = getattr(ad, "action_slot", None)
+    bag = anim_utils.action_get_channelbag_for_slot(ad.action, slot) if slot else ad.action
+    return bag.fcurves if bag is not None else []

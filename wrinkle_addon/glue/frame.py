@@ -43,6 +43,7 @@ shown in the panel, and a source that raises loses only its own wrinkles for tha
 (:func:`_run`).
 """
 
+import contextlib
 import itertools
 import time
 
@@ -450,9 +451,36 @@ def _current_depsgraph(scene, animate=False):
 stage_seconds = [0.0]
 
 
+_suspended = [0]  # > 0 while an export samples a copy that holds the wrinkles itself
+
+
+@contextlib.contextmanager
+def suspended():
+    """The frame handler does nothing inside this block: an exporter that samples the
+    timeline of a copy holding the wrinkles as shape keys need not compute them again."""
+    _suspended[0] += 1
+    try:
+        yield
+    finally:
+        _suspended[0] -= 1
+
+
+def export_frame(scene, ob):
+    """Set ``scene`` to its current frame as an export does and write ``ob``'s offsets
+    of that frame back into its mesh (every source, as a render shows them); returns the
+    evaluated depsgraph."""
+    _render_frame[0] = True
+    try:
+        depsgraph = _current_depsgraph(scene, animate=True)
+        update_face(ob, depsgraph)
+    finally:
+        _render_frame[0] = False
+    return depsgraph
+
+
 @persistent
 def on_frame_change_post(scene, depsgraph=None):
-    if _in_frame_sync:
+    if _in_frame_sync or _suspended[0]:
         return
     start = time.perf_counter()
     try:

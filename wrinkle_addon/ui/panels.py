@@ -39,6 +39,14 @@ class VIEW3D_PT_wrinkle_face(bpy.types.Panel):
         row.operator("wrinkle.bake", icon="FILE_CACHE")
         if bake.has_any_bake(face):
             row.operator("wrinkle.free_bake", icon="TRASH")
+        header, body = layout.panel("wrinkle_export", default_closed=True)
+        header.label(text="Export")
+        if body is not None:
+            col = body.column(align=True)
+            col.operator("wrinkle.export_gltf", text="glTF for Engines", icon="EXPORT")
+            col.operator("wrinkle.export_usd", text="USD", icon="EXPORT")
+            col.operator("wrinkle.export_wrinkle_package", text="Wrinkle-Map Package", icon="EXPORT")
+            col.operator("wrinkle.import_wrinkle_package", text="Import Wrinkle-Map Package", icon="IMPORT")
 
 
 class VIEW3D_PT_wrinkle_start(bpy.types.Panel):

@@ -490,13 +490,8 @@ def free_weights(face):
     baked = baked_paths(ng)
     if not baked:
         return
-    ad = ng.animation_data
-    if ad is not None and ad.action is not None:
-        from bpy_extras import anim_utils
-
-        slot = getattr(ad, "action_slot", None)
-        bag = anim_utils.action_get_channelbag_for_slot(ad.action, slot) if slot else ad.action
-        for fc in [fc for fc in bag.fcurves if fc.data_path in baked]:
-            bag.fcurves.remove(fc)
+    curves = drivers.action_fcurves(ng)
+    for fc in [fc for fc in curves if fc.data_path in baked]:
+        curves.remove(fc)
     del ng["wrinkle_baked"]
     sync(face, rebind=True)

@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# Install the Debian packages the tests need besides the Python venvs, when they are missing:
+#
+#   glslang-tools    glslangValidator: compiles docs/shaders/wrinkle_blend.glsl and .hlsl
+#   spirv-cross      turns the HLSL's SPIR-V back into GLSL, so the HLSL runs too
+#   libegl-mesa0     EGL with Mesa's surfaceless platform: OpenGL with no window or display
+#   libgl1-mesa-dri  Mesa's drivers, llvmpipe (software) among them
+#   libosmesa6       OSMesa, the other way to an off-screen OpenGL context
+#
+# (tests/core/test_shaders.py and tests/blender/test_shaders_ict.py, through
+# tests/core/glsl_runner.py.)  Idempotent: a package already installed is left alone, and
+# apt-get update runs only when the install fails (an old package list).
+#
+# Exit status: 0 ready, 1 could not install (the tests that need them then skip, or fail
+# with CI=true), 3 no apt here or no right to use it, outside CI (tools/test.sh: SKIP).
+set -uo pipefail
+
+PACKAGES=(glslang-tools spirv-cross libegl-mesa0 libgl1-mesa-dri libosmesa6)
+log() { echo "[setup_system] $*"; }
+in_ci() { [[ -n ${CI:-} && ${CI,,} != false && ${CI} != 0 ]]; }
+cannot() {
+    log "$*"
+    in_ci && return 1
+    return 3
+}
+
+missing=()
+if command -v dpkg-query >/dev/null 2>&1; then
+    for p in "${PACKAGES[@]}"; do
+        dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+    done
+else
+    cannot "no dpkg here (not Debian): install the equivalents of ${PACKAGES[*]} by hand"
+    exit $?
+fi
+if ((${#missing[@]} == 0)); then
+    log "installed already: ${PACKAGES[*]}"
+    exit 0
+fi
+
+SUDO=()
+if ((EUID != 0)); then
+    if command -v sudo >/dev/null 2>&1 && sudo -n true 2>/dev/null; then
+        SUDO=(sudo -n)
+    else
+        cannot "missing ${missing[*]}, and installing needs root: apt-get install ${missing[*]}"
+        exit $?
+    fi
+fi
+command -v apt-get >/dev/null 2>&1 || { cannot "missing ${missing[*]}, and there is no apt-get"; exit $?; }
+
+export DEBIAN_FRONTEND=noninteractive
+install() { "${SUDO[@]}" apt-get install -y --no-install-recommends "${missing[@]}"; }
+log "installing ${missing[*]}"
+if ! install; then
+    log "apt-get install failed; apt-get update, then once more"
+    if ! { "${SUDO[@]}" apt-get update && install; }; then
+        log "could not install ${missing[*]}"
+        exit 1
+    fi
+fi
+log "installed ${missing[*]}"

@@ -1,0 +1,253 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The wrinkled face to glTF for game engines, with Blender's own glTF exporter.
+
+An engine plays morph targets with animated weights.  The range's wrinkle offsets (every
+source summed, as renders show them: ``sample.read``) become K **wrinkle morph targets**
+and their weights per frame (``core.morphs.fit``: a truncated SVD, K the smallest within
+the tolerance, capped; every weight in [0, 1], which engines and Blender's importer clamp
+to, with one constant target "Wrinkle Base" at weight 1 when a signed weight needs it).
+A temporary copy of the face carries them: the face's mesh and its own shape keys, plus
+one shape key per wrinkle target, "Wrinkle 01" ..., and every shape key's value keyed on
+every frame (drivers, muscles and the wrinkles all become plain weight curves).
+Blender's glTF exporter writes that copy: the mesh, its morph targets (with their
+normals, so the wrinkles shade in the engine), the animation of all the weights, and its
+materials.
+
+The copy's materials are copies of the face's that carry the wrinkle-map table as a
+custom property, which the exporter writes as the material's ``extras.ewrinkles``: a JSON
+text with the layout of ``wrinkles.json`` (docs/wrinkle_package.md), with glTF image
+names.  The wrinkle maps, masks and base map are image nodes of the material that no BSDF
+input reads; the exporter's "unused textures" option writes them as textures all the
+same (from 8-bit PNG copies: ``_png_copies``).  Blender's importer reads them
+back with its "unused materials" option (the round-trip test does).
+
+The face's armature and other modifiers are not exported: the targets reproduce the
+wrinkles on the skin of the face's shape keys.
+"""
+
+import contextlib
+import json
+import os
+import tempfile
+
+import bpy
+import numpy as np
+
+from ...core import morphs
+from .. import drivers, frame, images
+from . import package, sample
+
+TARGET_PREFIX = "Wrinkle"
+EXTRAS = "ewrinkles"  # the material's extras key
+
+
+def _exporter_options(filepath, frame_start, frame_end):
+    """The glTF exporter's options that exist in this Blender (4.2 to 5.x)."""
+    wanted = {
+        "filepath": filepath,
+        "export_format": "GLTF_SEPARATE" if filepath.lower().endswith(".gltf") else "GLB",
+        "use_selection": True,
+        "export_apply": False,  # with modifiers applied the exporter drops shape keys
+        "export_yup": True,
+        "export_texcoords": True,
+        "export_normals": True,
+        "export_materials": "EXPORT",
+        "export_unused_textures": True,  # the wrinkle maps and masks: no BSDF input reads them
+        "export_extras": True,  # the materials' wrinkle-map table
+        "export_morph": True,
+        "export_morph_normal": True,
+        "export_morph_animation": True,
+        "export_animations": True,
+        "export_animation_mode": "ACTIONS",
+        "export_frame_range": True,
+        "export_force_sampling": True,
+        "export_anim_slide_to_zero": False,
+        "export_optimize_animation_size": False,
+        "export_try_sparse_sk": True,
+        "export_try_omit_sparse_sk": False,
+        "export_current_frame": False,
+        "export_skins": False,
+        "export_cameras": False,
+        "export_lights": False,
+        "will_save_settings": False,
+    }
+    known = {p.identifier for p in bpy.ops.export_scene.gltf.get_rna_type().properties}
+    return {k: v for k, v in wanted.items() if k in known}
+
+
+def _key_all(key, names, values, frames):
+    """Key every shape key of ``names`` on every frame to ``values`` (F, S), linearly."""
+    if not names:
+        return
+    blocks = key.key_blocks
+    for name, column in zip(names, values.T):
+        kb = blocks[name]
+        kb.value = float(column[0])
+        kb.keyframe_insert("value", frame=frames[0])
+    curves = {fc.data_path: fc for fc in drivers.action_fcurves(key)}
+    co = np.empty((len(frames), 2), np.float32)
+    co[:, 0] = frames
+    for name, column in zip(names, values.T):
+        fc = curves[drivers.shape_key_path(name)]
+        points = fc.keyframe_points
+        points.add(len(frames) - len(points))
+        co[:, 1] = column
+        points.foreach_set("co", co.ravel())
+        points.foreach_set("interpolation", np.full(len(frames), 1, np.int32))  # LINEAR
+        fc.update()
+
+
+def _take_name(original, copy, renamed):
+    """``copy`` takes ``original``'s name for the file; ``renamed`` collects it to name back."""
+    name = original.name
+    renamed.append((original, name))
+    original.name = name + ".source"
+    copy.name = name
+
+
+def _png_copies(face, folder, renamed, made):
+    """8-bit PNG copies of the face's maps, masks and base map, written by ``images.write``
+    (straight alpha: the fourth zone of a mask survives) and packed; the exporter embeds a
+    packed PNG's bytes as they are (Blender's own PNG writer would divide a mask's colour
+    by its alpha).  Returns {original: copy}."""
+    maps = face.ewrinkles_face.maps
+    out = {}
+    for prop, stem in package.SLOTS:
+        img = getattr(maps, prop)
+        if img is None or img in out:
+            continue
+        # the exporter names a packed image after its file: the image's own name, in a folder of its own
+        file_name = img.name.replace("/", "_").replace("\\", "_") + ".png"
+        path = images.write(images.read(img), os.path.join(folder, stem, file_name), "PNG", "8",
+                            name=img.name)
+        copy = bpy.data.images.load(path, check_existing=False)
+        made.append(copy)
+        copy.colorspace_settings.name = images.NON_COLOR
+        copy.pack()
+        _take_name(img, copy, renamed)
+        out[img] = copy
+    return out
+
+
+def _material_copies(face, extras, renamed, replace):
+    """Copies of the face's materials under their own names, carrying ``extras``, their
+    image nodes reading the images of ``replace``; the originals are renamed meanwhile."""
+    out = []
+    for slot in face.material_slots:
+        mat = slot.material
+        if mat is None:
+            continue
+        if extras is None:
+            out.append(mat)
+            continue
+        copy = mat.copy()
+        copy[EXTRAS] = json.dumps(extras, separators=(",", ":"))  # an ID property holds no list of str
+        for node in copy.node_tree.nodes if copy.node_tree is not None else ():
+            if node.type == "TEX_IMAGE" and node.image in replace:
+                node.image = replace[node.image]
+        _take_name(mat, copy, renamed)
+        out.append(copy)
+    return out
+
+
+def _image_names(face):
+    maps = face.ewrinkles_face.maps
+    if maps.weights_group is None or maps.material is None:
+        return None
+    slots = [getattr(maps, prop) for prop, _stem in package.SLOTS]
+    return {prop: img.name for (prop, _stem), img in zip(package.SLOTS, slots) if img is not None}
+
+
+@contextlib.contextmanager
+def _export_copy(context, face, fit, frames, folder):
+    """A temporary copy of ``face`` with its wrinkle targets and every weight keyed,
+    under the face's own names; everything is removed and renamed back on exit."""
+    scene = context.scene
+    name, mesh_name = face.name, face.data.name
+    made_materials, made_images, renamed, ob, me = [], [], [], None, None
+    try:
+        me = face.data.copy()
+        if me.shape_keys is not None:
+            me.shape_keys.animation_data_clear()  # drivers and keys of the face: keyed anew
+        for attr in [a.name for a in me.attributes if a.name.startswith("wrinkle_")]:
+            me.attributes.remove(me.attributes[attr])
+        ob = bpy.data.objects.new(name + ".export", me)
+        scene.collection.objects.link(ob)
+        ob.matrix_world = face.matrix_world
+        if me.shape_keys is None:
+            ob.shape_key_add(name="Basis", from_mix=False)
+        key = me.shape_keys
+        rest = np.empty(len(me.vertices) * 3, np.float32)
+        key.reference_key.points.foreach_get("co", rest)
+        names = list(frames.key_names)
+        for k, target in enumerate(fit.targets):
+            constant = fit.constant and k == fit.count - 1
+            label = f"{TARGET_PREFIX} Base" if constant else f"{TARGET_PREFIX} {k + 1:02d}"
+            kb = ob.shape_key_add(name=label, from_mix=False)  # weights in [0, 1]: the default slider
+            kb.points.foreach_set("co", rest + target.ravel())
+            names.append(kb.name)
+        values = np.concatenate([frames.key_values, fit.weights], axis=1) if fit.count else frames.key_values
+        _key_all(key, names, values, frames.frames)
+        if key.animation_data is not None and key.animation_data.action is not None:
+            key.animation_data.action.name = f"{name} Wrinkles"  # the glTF animation's name
+        image_names = _image_names(face)
+        extras = None
+        if image_names is not None:
+            extras = {**package.describe(face, image_names), "format": package.FORMAT,
+                      "version": package.VERSION,
+                      "animation": {"frames": list(frames.frames),
+                                    "zone_weights": np.round(frames.zone_weights, 6).tolist()}}
+        replace = _png_copies(face, folder, renamed, made_images) if extras is not None else {}
+        made_materials = _material_copies(face, extras, renamed, replace)
+        me.materials.clear()
+        for mat in made_materials:
+            me.materials.append(mat)
+        # the exporter names the node and the mesh after the face itself
+        face.name, face.data.name = name + ".source", mesh_name + ".source"
+        ob.name, me.name = name, mesh_name
+        yield ob
+    finally:
+        if ob is not None:
+            bpy.data.objects.remove(ob)
+        if me is not None:
+            bpy.data.meshes.remove(me)  # and its shape keys
+        for mat in made_materials:
+            if EXTRAS in mat and mat.users == 0:
+                bpy.data.materials.remove(mat)
+        for img in made_images:
+            bpy.data.images.remove(img)
+        for original, original_name in reversed(renamed):
+            original.name = original_name
+        face.name, face.data.name = name, mesh_name
+
+
+def export(context, face, filepath, frame_start, frame_end, tolerance_mm=0.05, max_targets=16, count=0,
+           progress=None):
+    """Export ``face`` over the range to ``filepath`` (.glb or .gltf).  Returns the report:
+    the file, K, the largest and mean error (mm) and whether K stayed within the
+    tolerance.  Raises ExportError (sample.py) for what the user must fix."""
+    path = sample.check_path(filepath, (".glb", ".gltf"))
+    sample.check_range(frame_start, frame_end)
+    frames = sample.read(context, face, frame_start, frame_end, maps=True,
+                         progress=(lambda i, n: progress(0.8 * i / n)) if progress else None)
+    mm = 1000.0 * sample.metres_per_unit(face, context.scene)
+    try:
+        fit = morphs.fit(frames.offsets, tolerance_mm / mm, max_targets, count)
+    except ValueError as exc:
+        raise sample.ExportError(str(exc)) from None
+    with tempfile.TemporaryDirectory(prefix="ewrinkles-gltf-") as folder, \
+            _export_copy(context, face, fit, frames, folder) as ob, \
+            sample.exporting(context, ob, frame_start, frame_end), frame.suspended():
+        try:
+            bpy.ops.export_scene.gltf(**_exporter_options(path, frame_start, frame_end))
+        except RuntimeError as exc:
+            raise sample.ExportError(f"Blender's glTF exporter failed: {exc}") from None
+    if progress:
+        progress(1.0)
+    if not os.path.isfile(path):
+        raise sample.ExportError(f"Blender's glTF exporter wrote no file at {path!r}")
+    return {"file": path, "frames": len(frames.frames), "targets": fit.count,
+            "max_error_mm": fit.max_error * mm, "mean_error_mm": fit.mean_error * mm,
+            "within_tolerance": fit.within_tolerance, "tolerance_mm": tolerance_mm,
+            "frame_max_error_mm": (fit.frame_max_error * mm).round(5).tolist(),
+            "textures": sorted(set((_image_names(face) or {}).values()))}
