@@ -125,8 +125,14 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
+    code = 0
     try:
         main(sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else None)
-    finally:
-        sys.stdout.flush()
-        os._exit(0)
+    except BaseException:  # noqa: BLE001 - printed, then the exit code says it
+        import traceback
+
+        traceback.print_exc()
+        code = 1
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)  # bpy can hang at interpreter exit (docs/architecture.md, "Exit")

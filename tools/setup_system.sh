@@ -7,6 +7,9 @@
 #   libgl1-mesa-dri  Mesa's drivers, llvmpipe (software) among them
 #   libosmesa6       OSMesa, the other way to an off-screen OpenGL context
 #
+# and, with the machine's npm, the Khronos glTF validator into tests/tools/gltf_validator/
+# (npm ci: the version its package-lock.json pins), which the glTF export's test runs.
+#
 # (tests/core/test_shaders.py and tests/blender/test_shaders_ict.py, through
 # tests/core/glsl_runner.py.)  Idempotent: a package already installed is left alone, and
 # apt-get update runs only when the install fails (an old package list).
@@ -33,9 +36,21 @@ else
     cannot "no dpkg here (not Debian): install the equivalents of ${PACKAGES[*]} by hand"
     exit $?
 fi
+# The Khronos glTF validator (npm, pinned by tests/tools/gltf_validator/package-lock.json),
+# which tests/blender/test_export_gltf.py runs on the exported .glb under Node.
+validator() {
+    local dir=tests/tools/gltf_validator
+    [[ -d $dir/node_modules/gltf-validator ]] && { log "glTF validator installed already"; return 0; }
+    command -v npm >/dev/null 2>&1 || { cannot "no npm here: the glTF validator test needs Node.js and npm"; return $?; }
+    log "installing the glTF validator (npm ci in $dir)"
+    (cd "$dir" && npm ci --no-audit --no-fund) || { log "npm ci failed in $dir"; return 1; }
+}
+cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
+
 if ((${#missing[@]} == 0)); then
     log "installed already: ${PACKAGES[*]}"
-    exit 0
+    validator
+    exit $?
 fi
 
 SUDO=()
@@ -60,3 +75,4 @@ if ! install; then
     fi
 fi
 log "installed ${missing[*]}"
+validator

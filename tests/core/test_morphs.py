@@ -84,3 +84,18 @@ def test_bad_parameters():
         morphs.fit(np.zeros((2, 3, 3)), tolerance=-1)
     with pytest.raises(ValueError, match="max_targets"):
         morphs.fit(np.zeros((2, 3, 3)), tolerance=0.1, max_targets=0)
+
+
+def test_normal_deltas_are_the_least_squares_fit():
+    rng = np.random.default_rng(3)
+    w = rng.uniform(0, 1, (30, 4))
+    truth = rng.normal(size=(4, 50, 3))
+    missing = np.tensordot(w, truth, axes=(1, 0))
+    np.testing.assert_allclose(morphs.fit_normals(w, missing), truth, atol=1e-5)
+    noisy = missing + rng.normal(size=missing.shape) * 0.1
+    fitted = morphs.fit_normals(w, noisy)
+    err = np.abs(np.tensordot(w, fitted, axes=(1, 0)) - noisy).sum()
+    assert err < np.abs(np.tensordot(w, fitted * 1.05, axes=(1, 0)) - noisy).sum()
+    assert morphs.fit_normals(np.zeros((3, 0)), np.zeros((3, 5, 3))).shape == (0, 5, 3)
+    with pytest.raises(ValueError):
+        morphs.fit_normals(w, missing[:5])

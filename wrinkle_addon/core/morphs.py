@@ -140,3 +140,18 @@ def reconstruct(weights, targets):
     w = np.asarray(weights, np.float64)
     t = np.asarray(targets, np.float64)
     return np.tensordot(w, t, axes=(1, 0)).astype(np.float32)
+
+
+def fit_normals(weights, missing):
+    """The morph-target normal deltas (K, N, 3) that best give ``missing`` (F, N, 3), what
+    an engine's normal lacks on each frame, as ``Σ_k w_fk dN_k`` with the targets' weights
+    (F, K): the least-squares solution, for every vertex at once (one F x K system with N x 3
+    right-hand sides)."""
+    w = checks.finite("weights", weights)
+    r = checks.finite("missing normals", missing)
+    if w.ndim != 2 or r.ndim != 3 or len(w) != len(r):
+        raise ValueError(f"weights {w.shape} and missing normals {r.shape} do not match")
+    if not w.shape[1]:
+        return np.zeros((0,) + r.shape[1:], np.float32)
+    solution = np.linalg.lstsq(w, r.reshape(len(r), -1), rcond=None)[0]
+    return solution.reshape((w.shape[1],) + r.shape[1:]).astype(np.float32)

@@ -31,7 +31,11 @@ Measured on bpy 4.5.4 and 5.2.3 (docs/architecture.md, "Measured Blender facts")
   and a byte image to EXR through a wrong colour conversion.  ``save_render`` with the
   format in a scene's image settings writes all four formats (8/16-bit PNG, half/float
   EXR), and for a Non-Color image applies no view transform (checked with Standard, Raw
-  and AgX).  ``save`` uses it on a temporary float Non-Color copy with a temporary scene.
+  and AgX).  ``save`` uses it on a temporary float Non-Color copy with a temporary scene,
+  for EXR.  Every Blender writer treats a float buffer as premultiplied and divides its
+  colour by its alpha on the way to PNG (0.5 at alpha 0.067 is written as 1.0), whatever
+  the image's alpha mode: a channel-packed mask's zones 1-3 would be lost where zone 4 is
+  partial.  So PNGs are written by ``_write_png``: straight RGBA, the numbers as they are.
 """
 
 import os

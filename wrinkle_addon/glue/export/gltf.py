@@ -35,7 +35,7 @@ import numpy as np
 
 from ...core import morphs
 from .. import drivers, frame, images
-from . import package, sample
+from . import glb, package, sample
 
 TARGET_PREFIX = "Wrinkle"
 EXTRAS = "ewrinkles"  # the material's extras key
@@ -51,6 +51,7 @@ def _exporter_options(filepath, frame_start, frame_end):
         "export_yup": True,
         "export_texcoords": True,
         "export_normals": True,
+        "export_tangents": True,  # the wrinkle maps are tangent-space: Blender's tangents, not the engine's
         "export_materials": "EXPORT",
         "export_unused_textures": True,  # the wrinkle maps and masks: no BSDF input reads them
         "export_extras": True,  # the materials' wrinkle-map table
@@ -63,7 +64,7 @@ def _exporter_options(filepath, frame_start, frame_end):
         "export_force_sampling": True,
         "export_anim_slide_to_zero": False,
         "export_optimize_animation_size": False,
-        "export_try_sparse_sk": True,
+        "export_try_sparse_sk": False,  # dense targets: their normals are refit in place (glb.py)
         "export_try_omit_sparse_sk": False,
         "export_current_frame": False,
         "export_skins": False,
@@ -221,6 +222,54 @@ def _export_copy(context, face, fit, frames, folder):
         face.name, face.data.name = name, mesh_name
 
 
+def _angles(normals, live):
+    """Degrees between the engine's normals (unnormalised) and the live unit normals."""
+    length = np.linalg.norm(normals, axis=-1)
+    cos = np.sum(normals * live, axis=-1) / np.maximum(length, 1e-12)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+def _refit_normals(path, face, fit, frames):
+    """Give the wrinkle targets the normal deltas that make the engine's normals the live
+    face's (``glb``'s docstring), in the written file.  Returns the normal error (degrees,
+    largest and 99th percentile over the range) with Blender's deltas and with the fitted
+    ones; or why it was left alone."""
+    if not fit.count:
+        return {}
+    try:
+        doc = glb.Glb(path)
+        prim, names = doc.mesh(face.data.name)
+        targets = prim["targets"]
+        weights = doc.weights(len(targets)).astype(np.float64)
+        rest = np.empty((len(face.data.vertices), 3), np.float32)
+        face.data.vertices.foreach_get("co", rest.ravel())
+        where = glb.vertex_map(doc.accessor(prim["attributes"]["POSITION"]), rest)
+        if where is None or len(weights) != len(frames.frames) or len(names) != len(targets):
+            return {"normals": "left as Blender's exporter wrote them: the file's vertices or frames do "
+                               "not match the face's one to one"}
+        live = frames.normals[:, where] @ glb.TO_GLTF.T  # (F, N, 3), the file's axes
+        ours = np.arange(len(targets) - fit.count, len(targets))
+        deltas = np.stack([doc.accessor(t["NORMAL"]) for t in targets]).astype(np.float64)
+        base = doc.accessor(prim["attributes"]["NORMAL"]).astype(np.float64)
+        others = [t for t in range(len(targets)) if t not in set(ours)]
+        engine = base + np.tensordot(weights[:, others], deltas[others], axes=(1, 0))
+        before = _angles(engine + np.tensordot(weights[:, ours], deltas[ours], axes=(1, 0)), live)
+        fitted = morphs.fit_normals(weights[:, ours], live - engine)
+        after = _angles(engine + np.tensordot(weights[:, ours], fitted, axes=(1, 0)), live)
+        for t, values in zip(ours, fitted):
+            doc.overwrite(targets[t]["NORMAL"], values)
+        doc.save()
+    except (KeyError, ValueError, IndexError) as exc:
+        return {"normals": f"left as Blender's exporter wrote them ({exc})"}
+    return {"normals": "refit",
+            "normal_error_deg_before": _summary(before), "normal_error_deg": _summary(after)}
+
+
+def _summary(angles):
+    """[largest, 99th percentile] of angles in degrees."""
+    return [round(float(angles.max()), 3), round(float(np.percentile(angles, 99)), 3)]
+
+
 def export(context, face, filepath, frame_start, frame_end, tolerance_mm=0.05, max_targets=16, count=0,
            progress=None):
     """Export ``face`` over the range to ``filepath`` (.glb or .gltf).  Returns the report:
@@ -228,7 +277,7 @@ def export(context, face, filepath, frame_start, frame_end, tolerance_mm=0.05, m
     tolerance.  Raises ExportError (sample.py) for what the user must fix."""
     path = sample.check_path(filepath, (".glb", ".gltf"))
     sample.check_range(frame_start, frame_end)
-    frames = sample.read(context, face, frame_start, frame_end, maps=True,
+    frames = sample.read(context, face, frame_start, frame_end, maps=True, normals=True,
                          progress=(lambda i, n: progress(0.8 * i / n)) if progress else None)
     mm = 1000.0 * sample.metres_per_unit(face, context.scene)
     try:
@@ -242,12 +291,13 @@ def export(context, face, filepath, frame_start, frame_end, tolerance_mm=0.05, m
             bpy.ops.export_scene.gltf(**_exporter_options(path, frame_start, frame_end))
         except RuntimeError as exc:
             raise sample.ExportError(f"Blender's glTF exporter failed: {exc}") from None
-    if progress:
-        progress(1.0)
     if not os.path.isfile(path):
         raise sample.ExportError(f"Blender's glTF exporter wrote no file at {path!r}")
+    shading = _refit_normals(path, face, fit, frames) if path.lower().endswith(".glb") else {}
+    if progress:
+        progress(1.0)
     return {"file": path, "frames": len(frames.frames), "targets": fit.count,
             "max_error_mm": fit.max_error * mm, "mean_error_mm": fit.mean_error * mm,
             "within_tolerance": fit.within_tolerance, "tolerance_mm": tolerance_mm,
             "frame_max_error_mm": (fit.frame_max_error * mm).round(5).tolist(),
-            "textures": sorted(set((_image_names(face) or {}).values()))}
+            "textures": sorted(set((_image_names(face) or {}).values())), **shading}

@@ -29,6 +29,7 @@ class Frames:
     key_names: list = field(default_factory=list)  # the face's shape keys but the basis
     key_values: np.ndarray = None  # (F, S) float32: their evaluated values
     zone_weights: np.ndarray = None  # (F, K, 8) float32, or None without wrinkle maps
+    normals: np.ndarray = None  # (F, V, 3) float32: the wrinkled face's vertex normals, if asked
 
 
 def check_range(frame_start, frame_end):
@@ -99,9 +100,22 @@ def _key_values(face, depsgraph):
     return [kb.value for kb in evaluated.key_blocks[1:]]
 
 
-def read(context, face, frame_start, frame_end, maps=False, progress=None):
-    """Step ``context.scene`` through the range and read every frame of ``face``; the
-    scene is put back on its frame afterwards.  Raises ExportError."""
+def _vertex_normals(face, out):
+    """The wrinkled face's vertex normals now (its evaluated mesh: the stage's offsets
+    applied); the base vertices' when a Subdivision Surface follows."""
+    ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    if len(ev.vertices) == len(out):
+        ev.vertex_normals.foreach_get("vector", out.reshape(-1))
+    else:
+        full = np.empty((len(ev.vertices), 3), np.float32)
+        ev.vertex_normals.foreach_get("vector", full.reshape(-1))
+        out[:] = full[: len(out)]
+
+
+def read(context, face, frame_start, frame_end, maps=False, normals=False, progress=None):
+    """Step ``context.scene`` through the range and read every frame of ``face`` (with
+    ``normals``, also its vertex normals); the scene is put back on its frame afterwards.
+    Raises ExportError."""
     check_range(frame_start, frame_end)
     scene = context.scene
     has_maps = maps and face.ewrinkles_face.maps.weights_group is not None
@@ -118,6 +132,7 @@ def read(context, face, frame_start, frame_end, maps=False, progress=None):
     zones = None
     if has_maps:
         zones = np.zeros((len(frames), wrinklemaps.n_maps(face.ewrinkles_face.maps), 8), np.float32)
+    shading = np.zeros((len(frames), n, 3), np.float32) if normals else None
     current = (scene.frame_current, scene.frame_subframe)
     try:
         for i, f in enumerate(frames):
@@ -129,6 +144,8 @@ def read(context, face, frame_start, frame_end, maps=False, progress=None):
                     raise ExportError(f'"{face.name}" on frame {f}: {why}')
                 meshio.read_vectors(me, stage.OFFSET_ATTR, offsets[i])
             values[i] = _key_values(face, depsgraph)
+            if shading is not None:
+                _vertex_normals(face, shading[i])
             if zones is not None:
                 zones[i] = wrinklemaps.zone_weights(face)
             if progress is not None:
@@ -137,4 +154,4 @@ def read(context, face, frame_start, frame_end, maps=False, progress=None):
         scene.frame_set(current[0], subframe=current[1])
     if not np.all(np.isfinite(offsets)):
         raise ExportError(f'"{face.name}" has wrinkle offsets that are not finite numbers')
-    return Frames(frames, offsets, names, values, zones)
+    return Frames(frames, offsets, names, values, zones, shading)
