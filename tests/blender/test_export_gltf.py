@@ -175,6 +175,15 @@ def test_the_khronos_validator_finds_no_error(exported):
     assert {r["image"]["bits"] for r in info["resources"] if "image" in r} == {8}  # the straight-alpha copies
 
 
+def test_gltf_separate_gets_its_normals_refit_too(tmp_path):
+    face, _muscle = exportscenes.wrinkled_face_with_maps()
+    report = gltf.export(bpy.context, face, str(tmp_path / "face.gltf"), 1, exportscenes.LAST)
+    assert report["normals"] == "refit" and (tmp_path / "face.bin").is_file()
+    assert report["normal_error_deg"][0] < report["normal_error_deg_before"][0] / 2
+    ob = _import(tmp_path / "face.gltf")
+    assert ob.data.shape_keys.key_blocks[-1].name.startswith("Wrinkle")
+
+
 def test_k_follows_the_tolerance(tmp_path):
     face, _muscle = exportscenes.wrinkled_face_with_maps()
     face.ewrinkles_face.muscles[0].object.ewrinkles_muscle.contraction = 0.0

@@ -5,6 +5,7 @@
     blender -b -c ewrinkles bake SHOT.blend
     blender -b -c ewrinkles check SHOT.blend
     blender -b -c ewrinkles sheet DIR
+    blender -b -c ewrinkles export SHOT.blend --format gltf|usd|package --out PATH
 
 and, with the pip ``bpy`` module, ``python -m wrinkle_addon.cli render ...`` (``__main__``).
 The commands themselves are in ``commands``; this module turns their outcome into an exit

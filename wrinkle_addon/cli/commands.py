@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The batch commands: render, bake, check and sheet (README, "Batch rendering and farms").
+"""The batch commands: render, bake, check, sheet and export (README, "The batch command and
+render farms"; export: "Wrinkles in game engines and other tools").
 
 Each returns an exit code (``args``: 0 done, 1 a failure during the work, 2 a usage error,
 3 not farm-ready, 130 stopped by Ctrl-C) and says what went wrong in one line on stderr.

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Reading a binary glTF (.glb) written by Blender's exporter, and one in-place patch: the
-normals of the wrinkle morph targets.
+"""Reading a glTF (.glb, or .gltf with its .bin) written by Blender's exporter, and one
+in-place patch: the normals of the wrinkle morph targets.
 
 Blender's glTF exporter gives every morph target the normal delta of its shape key alone
 at full weight.  An engine shades with ``normalize(NORMAL + Σ_t w_t dNORMAL_t)``, linear in
@@ -17,6 +17,8 @@ glTF is Y up: Blender's (x, y, z) is the file's (x, z, -y) (``TO_GLTF``).
 """
 
 import json
+import os
+import urllib.parse
 
 import numpy as np
 
@@ -26,17 +28,30 @@ _TYPES = {5126: np.float32, 5125: np.uint32, 5123: np.uint16, 5121: np.uint8}
 
 
 class Glb:
-    """A .glb's JSON and binary chunk, with its accessors as arrays."""
+    """A .glb's JSON and binary chunk, with its accessors as arrays; or a .gltf's JSON and
+    its one .bin file (what Blender's "glTF Separate" writes)."""
 
     def __init__(self, path):
         self.path = path
         with open(path, "rb") as fh:
             data = fh.read()
+        if path.lower().endswith(".gltf"):
+            self.json = json.loads(data)
+            buffers = self.json.get("buffers", [])
+            uri = buffers[0].get("uri", "") if len(buffers) == 1 else ""
+            if not uri or uri.startswith("data:"):
+                raise ValueError(f"{path} has no single .bin buffer")
+            self.bin_path = os.path.join(os.path.dirname(path), urllib.parse.unquote(uri))
+            with open(self.bin_path, "rb") as fh:
+                self.data = bytearray(fh.read())
+            self.bin_start = 0
+            return
         if data[:4] != b"glTF" or len(data) < 28:
             raise ValueError(f"{path} is not a binary glTF")
         n = int.from_bytes(data[12:16], "little")
         self.json = json.loads(data[20:20 + n])
         self.bin_start = 20 + n + 8  # the BIN chunk's data
+        self.bin_path = path
         self.data = bytearray(data)
 
     def _span(self, index, offset, count, kind, width):
@@ -77,8 +92,11 @@ class Glb:
         self.data[a:b] = values.tobytes()
 
     def save(self):
-        with open(self.path, "wb") as fh:
+        """Write the binary data back (the .glb, or the .gltf's .bin), through a temporary name."""
+        tmp = self.bin_path + ".partial"
+        with open(tmp, "wb") as fh:
             fh.write(self.data)
+        os.replace(tmp, self.bin_path)
 
     def mesh(self, name):
         """The first primitive of the mesh called ``name`` and the mesh's target names."""

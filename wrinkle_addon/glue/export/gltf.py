@@ -293,7 +293,7 @@ def export(context, face, filepath, frame_start, frame_end, tolerance_mm=0.05, m
             raise sample.ExportError(f"Blender's glTF exporter failed: {exc}") from None
     if not os.path.isfile(path):
         raise sample.ExportError(f"Blender's glTF exporter wrote no file at {path!r}")
-    shading = _refit_normals(path, face, fit, frames) if path.lower().endswith(".glb") else {}
+    shading = _refit_normals(path, face, fit, frames)
     if progress:
         progress(1.0)
     return {"file": path, "frames": len(frames.frames), "targets": fit.count,
