@@ -50,57 +50,59 @@ The mapped mesh (``--mesh``):
     none blocks: 0), and the time of one rebuild of the static plan (what an edit of a
     curve costs).
 ``fine_attributes_frame_ms``
-    The per-frame cost of the fine wrinkles' two shrinkage attributes (§5, §7: measured
-    across each field at every vertex and written for the shading) on the same face,
-    fine wrinkles carved at 512 x 512: the frames with the curves and the fine wrinkles
-    against those with the curves alone, in the same interleaved blocks.
+    What the fine wrinkles (§5, §7; carved at 512 x 512) add to a frame of the same face on
+    top of the curves: the frames with the curves and the fine wrinkles (their *Fine
+    Wrinkles* modifier shown, which measures the shrinkage across both fields in Blender's
+    own evaluation) against those with the curves alone (the modifier hidden, the source
+    off), in the same interleaved blocks.
 ``curves_and_fine_frame_ms``
     Both together on top of the stage: the frames with curves and fine wrinkles against
-    those with neither (the figure the 0.5 ms goal is about).
+    those with neither.
 ``frame_breakdown_ms``
-    Where that time goes: each part timed alone (``time.perf_counter``, ms) on the same face
-    with the add-on's frame handler removed, right after ``frame_set`` evaluated a new frame
-    (``--curve-warm`` untimed frames first, then the ``--curve-frames`` frames, in
-    ``--curve-repeats`` rounds; each figure the median over all its frames).  Every part
-    but ``handler_none`` runs with the curves and the fine wrinkles on:
+    Where the curves' time goes: each part timed alone (``time.perf_counter``, ms) on the
+    same face with the add-on's frame handler removed, right after ``frame_set`` evaluated a
+    new frame (``--curve-warm`` untimed frames first, then the ``--curve-frames`` frames, in
+    ``--curve-repeats`` rounds; each figure the median over all its frames), the fine
+    wrinkles off (they cost the handler nothing):
 
     ``curve_heights``
         The curve source's ``contribute``: ``core.bando.large.heights``, the shrinkage across
         each curve at its entries, ``M(s)`` and the sum at the footprint.
-    ``fine_shrinkage``
-        The fine source's ``contribute``: ``core.bando.fine.shrinkages``, both fields'
-        shrinkage at every vertex.
     ``curve_combine``
         ``core.combine.combine`` with the curves' heights: the skin normals at the raised
         vertices and the offsets along them (with no curve the stage's plan is empty).
-    ``attribute_write``
-        The stage writing the two shrinkage attributes into the evaluated mesh
-        (``glue.frame._write_shading``: look-ups, checks, one ``foreach_set`` each,
-        ``Mesh.update()``), on a frame nothing was written to yet.
-    ``handler_all`` / ``handler_none``
+    ``handler_curves`` / ``handler_none``
         The whole ``update_scene(in_place=True)`` call as the viewport handler makes it (on
-        the frame it evaluated), with everything on / with neither (the *none*
-        configuration, its own rounds of frames).
+        the frame it evaluated), with the curves on / off.
     ``stage_overhead``
-        handler_all - handler_none - the four parts above: whatever else the add-on adds per
-        frame for these sources (Python bookkeeping).  Derived from six medians, so it
+        handler_curves - handler_none - the two parts above: whatever else the add-on adds
+        per frame for the curves (Python bookkeeping).  Derived from four medians, so it
         carries their noise (and may come out slightly negative).
     ``floor``
-        The bare minimum of this feature's frame, in minimal NumPy in this benchmark
-        (``Floor``: preallocated float32 buffers, the add-on's static plans, no checks):
-        ``edges``, one gather of both ends of each edge the two fields and the curves need
-        (``edges_measured``, each once; none for the rows with no direction, s = 0) and its
-        length; ``shrinkage``, both fields' shrinkage from those lengths (eq. 4: a gather at
-        each row's four slots, a division, two reciprocals); ``heights``, the curves'
-        shrinkage from the same lengths, ``M(s)`` (eq. 5) and the sum at the footprint;
-        ``write``, two ``foreach_set`` of 50k float32 into the evaluated mesh's attributes
-        (on frames of their own, nothing written to them yet); ``total``, the sum of the
-        four.  The skin normals under the curves' heights (``curve_combine``) are left out:
-        the floor is the shrinkage feature alone.  The floor's values are checked against the
-        add-on's.
+        The bare minimum of the curves' arithmetic, in minimal NumPy in this benchmark
+        (``Floor``: preallocated float32 buffers, the add-on's static plan, no checks):
+        ``edges``, one gather of both ends of each edge the curves need (``edges_measured``,
+        each once) and its length; ``heights``, the shrinkage across each curve from those
+        lengths (eq. 4), ``M(s)`` (eq. 5) and the sum at the footprint; ``total``.  The
+        skin normals under the heights (``curve_combine``) are left out.  The floor's values
+        are checked against the add-on's.
 
     These run after ``frame_set`` returned; inside the frame handler, right after Blender's
     own evaluation, the same NumPy work is measured to take longer (colder caches).
+
+``fine_gn_ratio``
+    The fine wrinkles' per-frame cost against the GN tension reference's on the same face,
+    measured side by side: a fresh ``--curve-verts`` face of the same rig with fine wrinkles
+    carved and no Enable Wrinkles (shading only), plus ``benchmarks/_bench_scene.py``'s
+    tension modifier (``frame_update.py``'s ``tension``).  Three configurations interleaved
+    (base, fine, tension, then reversed) for ``--curve-repeats`` repeats, each block
+    ``Bench.frame_loop`` over ``--curve-frames`` frames after ``--curve-warm`` warm-up
+    frames: *base*, neither; *fine*, the *Fine Wrinkles* modifier shown and the source
+    active (the handler's own share included); *tension*, the tension modifier alone.  The
+    figure is the median over the repeats of (fine - base) / (tension - base); ``fine_gn``
+    has both costs, the base frame, the largest shrinkage seen and the per-repeat figures.
+    Before timing, the tree's shrinkage is checked against ``core.bando.fine.shrinkages`` on
+    three posed frames (at most 1e-6 apart, or the benchmark fails).
 
 Output: progress on stderr (the shared benchmark helpers log theirs on stdout), one JSON
 object on the last line of stdout::
@@ -108,7 +110,8 @@ object on the last line of stdout::
     {"carve_s": {"512": ..., "1024": ..., "2048": ...}, "coverage": {...}, "furrows": {...},
      "mesh": "face", "repeats": 3, "curves_frame_ms": ..., "curves": {...},
      "fine_attributes_frame_ms": ..., "curves_and_fine_frame_ms": ...,
-     "frame_breakdown_ms": {"curve_heights": ..., ..., "floor": {"edges": ..., ...}}, "bpy": "4.5.4"}
+     "frame_breakdown_ms": {"curve_heights": ..., ..., "floor": {"edges": ..., ...}}, "bpy": "4.5.4",
+     "fine_gn_ratio": ..., "fine_gn": {...}}
 
 With ``--carve-only`` the script imports no bpy and the keys from ``curves_frame_ms`` on
 are left out.
@@ -245,29 +248,24 @@ def add_fine_attributes(bench):
 
 
 class Floor:
-    """The floor of the feature's frame (see the module docstring): the bare minimum NumPy
-    work, on the add-on's own static plans (the fine wrinkles' and the curves'
-    ``field.EdgeSlots``, the curves' ``large.LargePlan``), in preallocated float32 buffers.
-    The edges both need are gathered once; a row with s = 0 (no direction) measures no
-    edge of its own."""
+    """The floor of the curves' frame (see the module docstring): the bare minimum NumPy
+    work, on the add-on's own static plan (``large.LargePlan``), in preallocated float32
+    buffers: each edge the curves need gathered once, a row with s = 0 measuring no edge of
+    its own."""
 
-    def __init__(self, fine_slots, large_plan, n):
+    def __init__(self, large_plan, n):
         self.n = n
-        rows = [self._rows(fine_slots, n), self._rows(large_plan.shrink, n)]
-        keys = np.unique(np.concatenate([r[0].ravel() for r in rows]))
-        ends = np.stack([keys // n, keys % n]).astype(np.intp)
+        keys, self.curve_coef, self.curve_share, self.curve_none = self._rows(large_plan.shrink, n)
+        unique = np.unique(keys.ravel())
+        ends = np.stack([unique // n, unique % n]).astype(np.intp)
         self.flat = ends[:, None, :] * 3 + np.arange(3)[:, None]  # (2, 3, E) skin indices
         self.gathered = np.empty(self.flat.shape, np.float32)
-        self.length = np.empty(len(keys), np.float32)
-        (self.fine_slot, self.fine_coef, self.fine_share, self.fine_none), \
-            (self.curve_slot, self.curve_coef, self.curve_share, self.curve_none) = (
-                (np.searchsorted(keys, k), c, sh, no) for k, c, sh, no in rows)
-        self.fine_q = np.empty(self.fine_slot.shape, np.float32)
-        self.fine_s = np.zeros((2, n), np.float32)
+        self.length = np.empty(len(unique), np.float32)
+        self.curve_slot = np.searchsorted(unique, keys)
         self.curve_q = np.empty(self.curve_slot.shape, np.float32)
         self.curve_s = np.empty(self.curve_slot.shape[1], np.float32)
         self.plan = large_plan
-        self.edges_measured = len(keys)
+        self.edges_measured = len(unique)
 
     @staticmethod
     def _rows(slots, n):
@@ -291,70 +289,53 @@ class Floor:
         self.length += d[2]
         np.sqrt(self.length, out=self.length)
 
-    def _shrinkage(self, slot, coef, share, none, q, s):
-        np.take(self.length, slot, out=q, mode="clip")
-        np.divide(coef, q, out=q)
+    def heights(self):
+        """The curves' shrinkage from the edge lengths, M(s) and the sum at the footprint."""
+        s, p, q = self.curve_s, self.plan, self.curve_q
+        np.take(self.length, self.curve_slot, out=q, mode="clip")
+        np.divide(self.curve_coef, q, out=q)
         side = q[0::2]
         side += q[1::2]
         np.reciprocal(side, out=side)
         side[0] += side[1]
-        np.subtract(share, side[0], out=s)
-        s[none] = 0.0
-
-    def shrinkage(self):
-        """Both fine fields' shrinkage from the edge lengths."""
-        self._shrinkage(self.fine_slot, self.fine_coef, self.fine_share, self.fine_none, self.fine_q,
-                        self.fine_s.reshape(-1))
-
-    def heights(self):
-        """The curves' shrinkage from the edge lengths, M(s) and the sum at the footprint."""
-        s, p = self.curve_s, self.plan
-        self._shrinkage(self.curve_slot, self.curve_coef, self.curve_share, self.curve_none, self.curve_q, s)
+        np.subtract(self.curve_share, side[0], out=s)
+        s[self.curve_none] = 0.0
         np.minimum(s, np.float32(1.0), out=s)
         m = np.where(s >= 0, p.growth * s + p.rest_height, p.rest_height * np.exp(p.decay * np.minimum(s, 0)))
         m *= p.static
         return np.bincount(p.entry_slot, m, minlength=len(p.footprint))
 
-    def write(self, ev, names):
-        """The two attributes into the evaluated mesh, one ``foreach_set`` each."""
-        for name, values in zip(names, self.fine_s):
-            ev.attributes[name].data.foreach_set("value", values)
-
 
 def frame_breakdown(bench, face, configure, repeats):
     """The ``frame_breakdown_ms`` figures (see the module docstring), with the add-on's frame
     handler removed: each part timed alone on freshly evaluated frames of the 50k face.
-    ``configure(config)`` switches the scene to ``"none"`` or ``"all"``."""
+    ``configure(config)`` switches the scene to ``"none"`` or ``"curves"``."""
     import bpy
     import frame_update as fu
 
     from wrinkle_addon.core import combine
-    from wrinkle_addon.core.bando import fine as core_fine
     from wrinkle_addon.core.bando import large
     from wrinkle_addon.glue import registry
-    from wrinkle_addon.glue.bando import shading
 
     pipeline, scene, n = fu.pipeline, bench.scene, bench.n
-    names = (shading.S1_ATTR, shading.S2_ATTR)
     skin = np.empty((n, 3), np.float32)
-    configure("all")
+    configure("curves")
     active = [s for s in registry.sources() if s.active(face)]
-    curve_src, fine_src = (next(s for s in active if s.name == k) for k in ("curves", "fine_wrinkles"))
+    curve_src = next(s for s in active if s.name == "curves")
     got = {}
 
-    def configure_all():
-        """Everything on; the stage's state and static data (rebuilt by each switch)."""
-        configure("all")
+    def configure_curves():
+        """The curves on; the stage's state and static data (rebuilt by each switch)."""
+        configure("curves")
         got["state"] = state = pipeline._cache[face.session_uid]
         got["statics"] = {s.name: state.statics[s.name][1] for s in active}
         return got["statics"]
 
-    statics = configure_all()
-    floor = Floor(statics[fine_src.name].plan, statics[curve_src.name].plan, n)
+    statics = configure_curves()
+    floor = Floor(statics[curve_src.name].plan, n)
     combine_out = np.zeros((n, 3), np.float32)
-    times = {k: [] for k in ("curve_heights", "fine_shrinkage", "curve_combine", "attribute_write",
-                             "handler_all", "handler_none", "floor_edges", "floor_shrinkage",
-                             "floor_heights", "floor_write")}
+    times = {k: [] for k in ("curve_heights", "curve_combine", "handler_curves", "handler_none",
+                             "floor_edges", "floor_heights")}
 
     def timed(key, fn, *args):
         t = time.perf_counter()
@@ -373,16 +354,10 @@ def frame_breakdown(bench, face, configure, repeats):
         call = timed if record else (lambda _k, fn, *a: fn(*a))
         statics = got["statics"]
         heights = call("curve_heights", curve_src.contribute, face, statics["curves"], skin, ())
-        shaded = call("fine_shrinkage", fine_src.contribute, face, statics[fine_src.name], skin, ())
         parts_in = [heights if s is curve_src else combine.Contribution() for s in active if s.geometric]
         call("curve_combine", combine.combine, got["state"].plan, skin, parts_in, combine_out)
         call("floor_edges", floor.edges, skin)
-        call("floor_shrinkage", floor.shrinkage)
         call("floor_heights", floor.heights)
-        call("attribute_write", pipeline._write_shading, face, [fine_src], statics, [shaded], ev)
-
-    def floor_write(ev, record):
-        (timed if record else (lambda _k, fn, *a: fn(*a)))("floor_write", floor.write, ev, names)
 
     def handler(key):
         def each(ev, record):
@@ -396,28 +371,24 @@ def frame_breakdown(bench, face, configure, repeats):
     bench.handler(False)
     try:
         for rep in range(repeats):
-            order = ("all", "none") if rep % 2 == 0 else ("none", "all")
+            order = ("curves", "none") if rep % 2 == 0 else ("none", "curves")
             for config in order:
-                if config == "all":
-                    configure_all()
+                if config == "curves":
+                    configure_curves()
                     frames(parts)
-                    frames(floor_write)
                 else:
                     configure(config)
                 frames(handler(f"handler_{config}"))
     finally:
         bench.handler(True)
-    statics = configure_all()
+    statics = configure_curves()
     out = {k: fu.ms(v) for k, v in times.items()}
-    check = large.heights(statics["curves"].plan, skin)
-    if not np.allclose(floor.heights(), check, atol=1e-7) or not np.allclose(
-            floor.fine_s, core_fine.shrinkages(statics[fine_src.name].plan, skin), atol=1e-6):
+    if not np.allclose(floor.heights(), large.heights(statics["curves"].plan, skin), atol=1e-7):
         raise RuntimeError("the floor's arithmetic differs from the add-on's")
-    parts_sum = sum(out[k] for k in ("curve_heights", "fine_shrinkage", "curve_combine", "attribute_write"))
-    result = {k: out[k] for k in ("curve_heights", "fine_shrinkage", "curve_combine", "attribute_write")}
-    result["handler_all"], result["handler_none"] = out["handler_all"], out["handler_none"]
-    result["stage_overhead"] = out["handler_all"] - out["handler_none"] - parts_sum
-    floor_parts = {k[6:]: out[k] for k in ("floor_edges", "floor_shrinkage", "floor_heights", "floor_write")}
+    parts_sum = out["curve_heights"] + out["curve_combine"]
+    result = {k: out[k] for k in ("curve_heights", "curve_combine", "handler_curves", "handler_none")}
+    result["stage_overhead"] = out["handler_curves"] - out["handler_none"] - parts_sum
+    floor_parts = {k[6:]: out[k] for k in ("floor_edges", "floor_heights")}
     result["floor"] = dict(floor_parts, total=sum(floor_parts.values()), edges_measured=floor.edges_measured)
     log("breakdown: " + ", ".join(f"{k} {v:.3f}" for k, v in result.items() if k != "floor") + " ms; floor: "
         + ", ".join(f"{k} {v:.3f}" for k, v in result["floor"].items() if k != "edges_measured")
@@ -429,6 +400,8 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
     """The ``curves_frame_ms`` figure and its detail (see the module docstring)."""
     import bpy
     import frame_update as fu  # bpy, the add-on enabled; its Bench builds and times the face
+
+    from wrinkle_addon.glue.bando import fine_tree
 
     fu.bs.clear_scene()
     fu.pipeline._cache.clear()
@@ -445,10 +418,13 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
     assert bpy.ops.wrinkle.enable() == {"FINISHED"}
     fine_image = add_fine_attributes(bench)
     fine_settings = face.ewrinkles_face.fine_wrinkles
+    fine_mod = fine_tree.find_modifier(face)
 
     def set_fine(on):
-        """The fine-wrinkle source on (its first image set) or off (no image: not active)."""
+        """The fine wrinkles on (their first image set, their modifier shown) or off (no
+        image: the source is not active; the modifier hidden)."""
         fine_settings.image_1 = fine_image if on else None
+        fine_mod.show_viewport = on
 
     stage_mod = fu.stage.find_modifier(face)
 
@@ -511,10 +487,9 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
         log(f"curves: repeat {rep + 1}/{repeats}: none {fu.ms(times['none'][-1]):.2f} ms, "
             f"curves {fu.ms(times['curves'][-1]):.2f} ms, with fine {fu.ms(times['all'][-1]):.2f} ms")
     set_curves(True)
-    set_fine(True)
+    set_fine(False)  # the breakdown is the curves' alone: the fine wrinkles cost Python nothing
 
     def configure(config):
-        set_fine(config == "all")
         set_curves(config != "none")
 
     breakdown = frame_breakdown(bench, face, configure, repeats)
@@ -542,11 +517,80 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
            "fine_attributes_frame_ms": fu.clean(fu.median_or_none(fine_cost)),
            "curves_and_fine_frame_ms": fu.clean(fu.median_or_none(both_cost)),
            "frame_breakdown_ms": fu.clean(breakdown), "bpy": bpy.app.version_string}
-    try:
-        bpy.ops.wm.read_factory_settings(use_empty=True)  # bpy 4.5 hangs at exit otherwise
-    except Exception as exc:  # noqa: BLE001 - the figures are measured; report and go on
-        log(f"read_factory_settings failed: {exc!r}")
     return out
+
+
+def fine_gn(target, frames, warm, repeats):
+    """The ``fine_gn_ratio`` figure and its detail (see the module docstring)."""
+    import bpy
+    import frame_update as fu
+
+    from wrinkle_addon.core.bando import fine as core_fine
+    from wrinkle_addon.glue.bando import fine_tree
+
+    fu.bs.clear_scene()
+    fu.pipeline._cache.clear()
+    bench = fu.Bench(target, warm, frames, "light", repeats)
+    bench.build()
+    face = bench.ob
+    vl = bpy.context.view_layer
+    for o in vl.objects:
+        o.select_set(False)
+    face.select_set(True)
+    vl.objects.active = face
+    image = add_fine_attributes(bench)  # no Enable Wrinkles: the fine wrinkles alone
+    fs = face.ewrinkles_face.fine_wrinkles
+    fine_mod = fine_tree.find_modifier(face)
+    tension = fu.bs.add_tension_modifier(face)
+
+    def configure(config):
+        fs.image_1 = image if config in ("fine", "fine_tree") else None
+        fine_mod.show_viewport = config in ("fine", "fine_tree")
+        tension.show_viewport = config == "tension"
+
+    # untimed: the tree's shrinkage is the NumPy reference's on a posed frame, and it varies
+    configure("fine")
+    bench.frame_loop(bench.warm)
+    seen = []
+    for f in bench.frames[:3]:
+        bench.scene.frame_set(f)
+        got = fine_tree.shrinkage(face)
+        plan = fu.pipeline._cache[face.session_uid].statics["fine_wrinkles"][1].plan
+        skin = fu.meshio.read_vectors(face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data,
+                                      "position")
+        err = float(np.abs(got - core_fine.shrinkages(plan, skin)).max())
+        if err > 1e-6:
+            raise RuntimeError(f"the tree's shrinkage is {err} off the NumPy reference on frame {f}")
+        seen.append(float(np.abs(got).max()))
+    if not seen[-1] > 0.0:
+        raise RuntimeError("the fine wrinkles' shrinkage does not vary on the bench frames")
+    configs = ("base", "fine", "tension", "fine_tree")  # fine_tree: the modifier, no frame handler
+    times = {c: [] for c in configs}
+    for rep in range(repeats):
+        for config in (configs if rep % 2 == 0 else configs[::-1]):
+            configure(config)
+            bench.handler(config != "fine_tree")
+            bench.frame_loop(bench.warm)
+            times[config].append(bench.frame_loop(bench.frames))
+            bench.handler(True)
+        log(f"fine gn: repeat {rep + 1}/{repeats}: " + ", ".join(
+            f"{c} {fu.ms(times[c][-1]):.2f} ms" for c in configs))
+    med = {c: [fu.ms(block) for block in blocks] for c, blocks in times.items()}
+    fine_cost = [a - b for a, b in zip(med["fine"], med["base"])]
+    tree_cost = [a - b for a, b in zip(med["fine_tree"], med["base"])]
+    tension_cost = [a - b for a, b in zip(med["tension"], med["base"])]
+    ratios = [fu.ratio(a, b) for a, b in zip(fine_cost, tension_cost)]
+    result = fu.median_or_none(ratios)
+    detail = {"verts": bench.n, "head": bench.source, "frames": frames, "warm": warm, "repeats": repeats,
+              "fine_ms": fu.median_or_none(fine_cost), "tension_ms": fu.median_or_none(tension_cost),
+              "tree_ms": fu.median_or_none(tree_cost),
+              "base_frame_ms": fu.ms([x for b in times["base"] for x in b]),
+              "shrinkage_max": max(seen), "per_repeat": {"fine_ms": fine_cost, "tension_ms": tension_cost,
+                                                          "ratio": ratios}}
+    log(f"fine_gn_ratio {fu.fmt(result, '.3f')}: the fine wrinkles {fu.fmt(detail['fine_ms'], '.3f')} ms a "
+        f"frame against the GN tension reference's {fu.fmt(detail['tension_ms'], '.3f')} ms (frame "
+        f"{detail['base_frame_ms']:.2f} ms without either)")
+    return {"fine_gn_ratio": fu.clean(result), "fine_gn": fu.clean(detail)}
 
 
 def main(argv=None):
@@ -577,6 +621,13 @@ def main(argv=None):
     if not args.carve_only:
         result.update(curves_frame_ms(args.curves, args.curve_verts, args.curve_frames, args.curve_warm,
                                       args.curve_repeats))
+        result.update(fine_gn(args.curve_verts, args.curve_frames, args.curve_warm, args.curve_repeats))
+        import bpy
+
+        try:
+            bpy.ops.wm.read_factory_settings(use_empty=True)  # bpy 4.5 hangs at exit otherwise
+        except Exception as exc:  # noqa: BLE001 - the figures are measured; report and go on
+            log(f"read_factory_settings failed: {exc!r}")
     print(json.dumps(result), flush=True)
 
 

@@ -132,6 +132,10 @@ left is null (n/a).  The per-repeat values are in ``per_repeat``.
 ``playback_ratio_pulling``   m_r(pulling) / b_r(pulling)
 ``floor_ratio``              d_r(floor) / d_r(tension)
 ``floor_displace_ratio``     d_r(floor) / d_r(displace)
+``stage_floor_ratio``        d_r(wrinkles) / (d_r(floor) + ``compute_tight_loop_ms``): the
+                             stage over its own NumPy floor, the bare handler plus the
+                             muscles' arithmetic alone in a tight loop (``_pulling``: of the
+                             pulling blocks, with the pulling plan's tight loop)
 ``playback_ratio_floor``     m_r(floor) / b_r(floor)
 ``per_repeat``               ``frame_ms``: m_r, ``base_ms``: b_r and
                              ``cost_ms``: d_r, per configuration (a list each,
@@ -879,6 +883,13 @@ def run_size(label, target, args, rig, r):
             log(traceback.format_exc())
             b.handler(True)
     r.update(b.measure_interleaved())
+    cost = r["per_repeat"]["cost_ms"]
+    for config, sfx in MUSCLE_CONFIGS:
+        tight = r.get("compute_tight_loop_ms" + sfx)
+        floors = [None if f is None or tight is None else f + tight for f in cost["floor"]]
+        per = [ratio(a, f) for a, f in zip(cost[config], floors)]
+        r["stage_floor_ratio" + sfx] = median_or_none(per)
+        r["per_repeat"]["stage_floor_ratio" + sfx] = per
     for config, sfx in MUSCLE_CONFIGS:
         r.update(b.check_wrinkles(config, sfx))
     g = r.get
@@ -892,6 +903,9 @@ def run_size(label, target, args, rig, r):
         f"playback {fmt(g('playback_ms'))} vs {fmt(g('playback_base_ms'))} = x{fmt(g('playback_ratio'))} "
         f"(pulling {fmt(g('playback_ms_pulling'))} = x{fmt(g('playback_ratio_pulling'))})  "
         f"[{pc() - t0:.1f} s]")
+    log(f"  => stage over its floor: stage_floor_ratio {fmt(g('stage_floor_ratio'))} (pulling "
+        f"{fmt(g('stage_floor_ratio_pulling'))}), overhead {fmt(g('overhead_ms'), '.3f')} ms (pulling "
+        f"{fmt(g('overhead_ms_pulling'), '.3f')})")
     log(f"  => floor (read + write + GN stage, no math) {fmt(g('floor_ms'))} ms: floor_ratio "
         f"{fmt(g('floor_ratio'))}, floor_displace_ratio {fmt(g('floor_displace_ratio'))}, playback "
         f"x{fmt(g('playback_ratio_floor'))}")

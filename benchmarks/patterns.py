@@ -5,7 +5,7 @@ a 50k-vertex face.
 Run:  .venv45/bin/python benchmarks/patterns.py   (or .venv52)
       options: --verts 50000  --layers 10  --tears 2  --frames 40  --warm 5  --repeats 6
 
-Prints one JSON line, ``{"patterns_frame_ms": ..., "patterns": {...}}``:
+Prints one JSON line, ``{"patterns_frame_ms": ..., "frame_empty_rebuild_ms": ..., "patterns": {...}}``:
 
 ``patterns_frame_ms``
     What ``--layers`` (10) pattern layers and ``--tears`` (2) shedding tears add to a frame
@@ -27,6 +27,14 @@ Prints one JSON line, ``{"patterns_frame_ms": ..., "patterns": {...}}``:
     add-on's frame handler in, the viewport's in-place path) over ``--frames`` new frames
     after ``--warm`` warm-up frames.  ``patterns_frame_ms`` is the median over the repeats of
     (median frame of the all block - median frame of the none block next to it).
+``frame_empty_rebuild_ms``
+    What animating the layers' frames costs: a fourth configuration in the same interleaved
+    blocks, *moving*, the layers shown with every frame Empty keyed to turn about its normal
+    by 0.5 rad and grow by 20 % over the timed frames (``animate_frames``: the pattern lies
+    differently every frame, no region moves); the median over the repeats of (moving -
+    layers).  Each frame places every layer again (its region's rest positions through the
+    frame's matrix); its static data is not rebuilt (``patterns.moving_rebuilt_blocks``
+    counts the moving blocks in which it was: 0).
 ``patterns``
     The detail: the footprint (vertices raised by any layer), the layers' region sizes, both
     pooled medians, the per-repeat figures, the largest height after the layers blocks and
@@ -97,6 +105,25 @@ def combine_floor(face, footprint, heights):
         combine.combine(plan, skin, [part], out)
         times.append(time.perf_counter() - t)
     return times and float(np.median(times) * 1000.0)
+
+
+def animate_frames(layers, end):
+    """Key every layer's frame Empty to turn about its own normal by 0.5 rad and grow by 20 %
+    between frame 1 and ``end``, staying where it is on the skin; returns each Empty with its
+    action (the benchmark switches the animation on and off).  Only where the pattern lies
+    changes: no layer's region moves."""
+    from mathutils import Matrix
+
+    out = []
+    for lay in layers:
+        ob = lay.frame
+        base = ob.matrix_basis.copy()
+        for frame, turn, grow in ((1, 0.0, 1.0), (end, 0.5, 1.2)):
+            ob.matrix_basis = base @ Matrix.Rotation(turn, 4, "Z") @ Matrix.Diagonal((grow, grow, grow, 1.0))
+            for path in ("location", "rotation_euler", "scale"):
+                ob.keyframe_insert(path, frame=frame)
+        out.append((ob, ob.animation_data.action))
+    return out
 
 
 def add_tears(face, lm, count):
@@ -176,7 +203,7 @@ def main(argv=None):
     from wrinkle_addon.glue import registry
 
     src = next(s for s in registry.sources() if s.name == "patterns")
-    values = [v[:5] for v in src.inputs(face, static)]
+    values = [v[0][:5] for v in src.inputs(face, static)]  # (values, the frame's placement)
     ht = []
     for _ in range(50):
         t = time.perf_counter()
@@ -184,15 +211,27 @@ def main(argv=None):
         ht.append(time.perf_counter() - t)
     detail["heights_ms"] = fu.ms(ht)
     detail["combine_ms"] = combine_floor(face, static.plan.footprint, core.heights(static.plan, values))
-    configs = ("none", "layers", "all")
+    moves = animate_frames(layers, bench.frames[-1] + 1)
+
+    def animate(on):
+        for ob, action in moves:
+            ob.animation_data.action = action if on else None
+
+    animate(False)
+    configs = ("none", "layers", "all", "moving")  # moving: the layers, their Empties animated
     times = {c: [] for c in configs}
     peak = {c: [] for c in configs}
+    rebuilt = []
     for rep in range(args.repeats):
         for config in (configs if rep % 2 == 0 else configs[::-1]):
             show(config != "none")
             show_tears(config == "all")
+            animate(config == "moving")
             bench.frame_loop(bench.warm)
+            serial = fu.pipeline._cache[face.session_uid].statics["patterns"][2]
             times[config].append(bench.frame_loop(bench.frames))
+            if config == "moving":
+                rebuilt.append(fu.pipeline._cache[face.session_uid].statics["patterns"][2] != serial)
             bench.frame_loop(bench.frames[:3], lambda _ev, c=config: peak[c].append(
                 float(np.abs(fu.pipeline._cache[face.session_uid].out).max())))
         log(f"repeat {rep + 1}/{args.repeats}: "
@@ -201,19 +240,24 @@ def main(argv=None):
     cost = [a - b for a, b in zip(med["all"], med["none"])]
     detail["layers_ms"] = fu.clean(fu.median_or_none([a - b for a, b in zip(med["layers"], med["none"])]))
     detail["tears_ms"] = fu.clean(fu.median_or_none([a - b for a, b in zip(med["all"], med["layers"])]))
+    frame_empty = fu.median_or_none([a - b for a, b in zip(med["moving"], med["layers"])])
+    detail["moving_rebuilt_blocks"] = int(sum(rebuilt))
     detail.update({"frame_ms": fu.ms([x for b in times["all"] for x in b]),
                    "base_frame_ms": fu.ms([x for b in times["none"] for x in b]),
                    "max_height_mm": max(peak["layers"]) * 1000.0,
                    "max_height_none_mm": max(peak["none"]) * 1000.0,
                    "per_repeat": {"all_ms": med["all"], "layers_ms": med["layers"], "none_ms": med["none"],
-                                  "cost_ms": cost},
+                                  "moving_ms": med["moving"], "cost_ms": cost},
                    "bpy": bpy.app.version_string})
     if not detail["max_height_mm"] > 0.0 or detail["max_height_none_mm"] != 0.0:
         raise RuntimeError("the layers blocks raised nothing, or the none blocks did")
     result = fu.median_or_none(cost)
     log(f"patterns_frame_ms {result:.3f} (layers {detail['layers_ms']}, tears {detail['tears_ms']}); heights "
         f"alone {detail['heights_ms']:.3f} ms; footprint {detail['footprint_verts']} verts")
-    print(json.dumps({"patterns_frame_ms": fu.clean(result), "patterns": fu.clean(detail)}), flush=True)
+    log(f"frame_empty_rebuild_ms {fu.fmt(frame_empty, '.3f')} (blocks that rebuilt the layers: "
+        f"{detail['moving_rebuilt_blocks']} of {len(rebuilt)})")
+    print(json.dumps({"patterns_frame_ms": fu.clean(result), "frame_empty_rebuild_ms": fu.clean(frame_empty),
+                      "patterns": fu.clean(detail)}), flush=True)
     bpy.ops.wm.read_factory_settings(use_empty=True)  # bpy 4.5 hangs at exit otherwise
 
 

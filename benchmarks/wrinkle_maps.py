@@ -35,6 +35,12 @@ and ``--samples``.  Only the links and values of one material change between var
     ``render_ratio_skin_faint``: the group at Strength 1e-4, all of its arithmetic but
     next to no wrinkles, so the light paths stay the plain skin's: against
     ``render_ratio_skin`` it tells the cost of the nodes from that of the wrinkled shading.
+``arithmetic_per_zone``
+    The blend group's own arithmetic, per zone the pose lights (``active_zones``: zone
+    weights above 0), as a fraction of the skin render: per round (t(skin with the group) -
+    t(skin with the three lookups alone)) / t(skin) / active zones, the median over the
+    rounds.  The lookups are the method's cost; this is what the group adds over them.
+    Goal: at most 0.004 (0.4 % per active zone).
 ``bake_s``
     ``wrinkle.bake_wrinkle_map`` at ``--bake`` px (2048 by default) in "each muscle
     contracted" mode: the heights of every muscle, the UV rasterisation, the slopes and
@@ -301,6 +307,10 @@ def main(argv):
     def median(name):
         return round(statistics.median(times[name]), 3)
 
+    active = sum(1 for w in weights if w > 0.0)
+    # per round: the group's own arithmetic over the three lookups, in skin renders, per zone lit
+    per_zone = [(m - lk) / sk / max(active, 1) for m, lk, sk in
+                zip(times["skin_maps"], times["skin_lookups"], times["skin"])]
     used = [maps.map_a, maps.mask_a, maps.mask_b]
     wmap = maps.map_a
     result = {
@@ -313,6 +323,8 @@ def main(argv):
         "render_ratio_plain": ratio("maps", "plain"),
         "render_ratio_lookups_only": ratio("lookups", "plain"),
         "render_ratio_skin_faint": ratio("skin_maps_faint", "skin"),
+        "active_zones": active,
+        "arithmetic_per_zone": round(statistics.median(per_zone), 5),
         "texture_mb": round(held_mb(used), 3),
         "render_s": {k: median(k) for k in names},
         "render_all_s": {k: [round(x, 3) for x in v] for k, v in times.items()},

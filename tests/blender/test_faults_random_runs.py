@@ -69,19 +69,6 @@ def test_snap_to_face_on_a_face_scaled_to_zero_says_why():
     assert "unexpectedly" not in str(err.value)
 
 
-def test_bake_for_farm_refuses_an_empty_range_when_only_the_fine_wrinkles_bake(tmp_path):
-    face = uv_face(enable=False)
-    face.ewrinkles_face.fine_wrinkles.resolution = "512"
-    _select_only(face)
-    assert bpy.ops.wrinkle.carve_fine() == {"FINISHED"}
-    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "shot.blend"))
-    _select_only(face)
-    with pytest.raises(RuntimeError, match="frame range 5-3 is empty") as err:
-        bpy.ops.wrinkle.bake(frame_start=5, frame_end=3)
-    assert "unexpectedly" not in str(err.value)
-    assert not (tmp_path / "wrinkle_bake").exists()
-
-
 def test_a_mesh_in_edit_mode_through_a_linked_duplicate_pauses_that_face(capsys):
     face = uv_face(enable=False)
     face.ewrinkles_face.fine_wrinkles.resolution = "512"

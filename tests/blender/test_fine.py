@@ -1,6 +1,7 @@
 """Fine-scale wrinkles (Bando et al. 2002, §5 and §7) on a face in Blender: Carve Fine
-Wrinkles makes the two height images, stores the fields, wires the node group; every frame
-the shrinkage across each field is written as a point attribute; bad input changes nothing."""
+Wrinkles makes the two height images, stores the fields and the plan, adds the modifier that
+measures the shrinkage across each field every frame, wires the node group; bad input
+changes nothing."""
 
 import bpy
 import numpy as np
@@ -9,7 +10,7 @@ import pytest
 from tests.blender.test_curves import uv_face
 from wrinkle_addon.core.bando import field as core_field
 from wrinkle_addon.glue.bando import fine as fine_glue
-from wrinkle_addon.glue.bando import shading
+from wrinkle_addon.glue.bando import fine_tree, shading
 
 
 def _carve(face, resolution="512", **settings):
@@ -21,12 +22,10 @@ def _carve(face, resolution="512", **settings):
     return bpy.ops.wrinkle.carve_fine()
 
 
-def _attr(face, name):
-    """The attribute as the face shows it: viewport frames write it into the evaluated mesh."""
-    ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
-    att = ev.attributes[name]
-    out = np.empty(len(ev.vertices), np.float32)
-    att.data.foreach_get("value", out)
+def _shrinkage(face):
+    """Both fields' shrinkage (2, N) as Blender computed it in the face's modifier."""
+    out = fine_tree.shrinkage(face)
+    assert out is not None, "the evaluated face holds no shrinkage"
     return out
 
 
@@ -69,15 +68,15 @@ def test_the_face_field_runs_across_the_compression():
     assert np.median(np.abs(f1[strong, 0]) / np.linalg.norm(f1[strong], axis=1)) > 0.95
 
 
-def test_the_shrinkage_attributes_follow_the_pose(carved):
+def test_the_shrinkage_follows_the_pose(carved):
     key = carved.data.shape_keys.key_blocks["BrowsUp"]
     key.value = 0.0
     bpy.context.scene.frame_set(1)
-    s1 = _attr(carved, shading.S1_ATTR)
+    s1 = _shrinkage(carved)[0]
     assert np.abs(s1).max() < 1e-4  # rest: no shrinkage
     key.value = 1.0
     bpy.context.scene.frame_set(1)
-    s1, s2 = _attr(carved, shading.S1_ATTR), _attr(carved, shading.S2_ATTR)
+    s1, s2 = _shrinkage(carved)
     assert s1.max() > 0.2  # across the horizontal furrows the skin shrinks
     assert np.median(s2[s1 > 0.1]) < np.median(s1[s1 > 0.1])  # less across the second field
 
@@ -112,18 +111,17 @@ _OPS = {
 
 
 def _eval_modulation(ng, s, r):
-    """Evaluate the group's first M(s) (attribute "Shrinkage 1", rest height r) in Python."""
+    """Evaluate the group's first M(s) (shrinkage s across field 1, rest height r) in Python."""
     def value(sock):
         if not sock.is_linked:
             return sock.default_value
         src = sock.links[0].from_socket
         node = src.node
-        if node.type == "ATTRIBUTE":
+        if node.bl_idname == "ShaderNodeSeparateXYZ":  # the shrinkage attribute's components
+            assert node.inputs[0].links[0].from_node.type == "ATTRIBUTE"
             return s
         if node.type == "GROUP_INPUT":
-            return {"Rest Height": r, "Distance": 1.0, "Use Baked": 0.0}[src.name]
-        if node.type == "SEPARATE_COLOR":  # the farm bake's shrinkage, not used (Use Baked = 0)
-            return 0.0
+            return {"Rest Height": r, "Distance": 1.0}[src.name]
         args = [value(i) for i in node.inputs[: {"MULTIPLY_ADD": 3, "EXPONENT": 1}.get(node.operation, 2)]]
         return _OPS[node.operation](*args)
 
@@ -182,9 +180,10 @@ def test_remove_takes_the_layer_out_and_keeps_the_material_working(carved):
     bpy.context.view_layer.objects.active = carved
     assert bpy.ops.wrinkle.remove_fine() == {"FINISHED"}
     assert fine_glue.GROUP_NODE not in mat.node_tree.nodes
-    assert carved.data.attributes.get(shading.S1_ATTR) is None
-    bpy.context.scene.frame_set(2)  # the source is gone: nothing written
-    assert carved.data.attributes.get(shading.S1_ATTR) is None
+    assert fine_tree.find_modifier(carved) is None
+    assert not any(carved.data.attributes.get(name) for name, _kind in fine_tree.slot_attributes())
+    bpy.context.scene.frame_set(2)  # the source is gone: nothing measured
+    assert fine_tree.shrinkage(carved) is None
 
 
 def test_fine_wrinkles_survive_saving_and_reopening(carved, tmp_blend):
@@ -197,7 +196,7 @@ def test_fine_wrinkles_survive_saving_and_reopening(carved, tmp_blend):
     assert fs.image_1.size[0] == 512 and min(fs.image_1.pixels[:]) < 0.9
     face.data.shape_keys.key_blocks["BrowsUp"].value = 1.0
     bpy.context.scene.frame_set(1)
-    assert _attr(face, shading.S1_ATTR).max() > 0.2
+    assert _shrinkage(face)[0].max() > 0.2
 
 
 def test_directions_from_the_muscles_alone():
@@ -223,7 +222,7 @@ def test_the_shrinkage_sees_the_muscles_pull():
     scene = bpy.context.scene
     muscle.ewrinkles_muscle.contraction = 0.0
     scene.frame_set(1)
-    assert np.abs(_attr(face, shading.S1_ATTR)).max() < 1e-4
+    assert np.abs(_shrinkage(face)[0]).max() < 1e-4
     muscle.ewrinkles_muscle.contraction = 1.0
     scene.frame_set(1)
-    assert _attr(face, shading.S1_ATTR).max() > 0.05  # (0 before the pull was handed on)
+    assert _shrinkage(face)[0].max() > 0.05  # (0 before the pull was handed on)

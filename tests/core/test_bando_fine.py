@@ -66,3 +66,30 @@ def test_uv_directions_keep_the_skin_length_and_direction():
     flat = np.abs(np.cos(30 * pos[:, 0])) > 0.99  # where the sheet is level, x maps to u
     np.testing.assert_allclose(np.linalg.norm(uvd, axis=1), 0.5, rtol=1e-6)
     assert np.all(np.abs(uvd[flat, 1]) < 1e-6)
+
+
+@pytest.mark.parametrize("missing_field", [False, True], ids=["both-fields", "field-2-partly-missing"])
+def test_the_tree_transcription_computes_exactly_the_reference(missing_field):
+    """The per-vertex slots the Geometry Nodes tree reads, evaluated as the tree does
+    (``slot_shrinkages``), give the reference ``shrinkages`` bit for bit: on a squash, a
+    stretch and a random jitter, with seams and vertices that have no direction."""
+    rest, _tris, m = _sheet()
+    f1 = np.stack([np.ones(len(m.uv)), 0.3 * np.sin(20 * m.uv[:, 1])], 1)
+    f2 = field.rotate(f1, 1.1)
+    if missing_field:
+        f2 = np.where((m.uv[:, 0] < 0.5)[:, None], f2, 0.0)
+    plan = fine.plan(m, rest, f1, f2)
+    slots = fine.vertex_slots(plan)
+    n = len(rest)
+    assert slots.far.shape == (2, 4, n) and slots.far.dtype == np.int32
+    assert slots.coef.dtype == np.float32 and slots.share.shape == (2, n)
+    assert np.all((slots.far >= 0) & (slots.far < n))
+    rng = np.random.default_rng(3)
+    for skin in (rest * [1.0, 0.8, 1.0], rest * [1.1, 1.3, 1.0],
+                 rest + 2e-3 * rng.standard_normal(rest.shape)):
+        skin = skin.astype(np.float32)
+        want = fine.shrinkages(plan, skin)
+        got = fine.slot_shrinkages(slots, skin)
+        np.testing.assert_array_equal(got, want)
+    # no direction on the right half: a share of 0 there (a corner of the sheet may have none)
+    assert ((slots.share[1] == 0).sum() > n // 3) == missing_field

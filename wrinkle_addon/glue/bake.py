@@ -9,7 +9,9 @@ face, whose Mesh Sequence Cache modifier reads the positions back.  The face
 itself is hidden from renders, and what follows the face's skin through its evaluated
 mesh (a shedding tear) follows the stand-in's instead, which holds the wrinkles.
 Nothing of this needs the add-on or Python, so ``blender -b file.blend -a`` on a farm
-renders it identically.
+renders it identically.  The cache also holds the face's UV maps, frame by frame: a
+Geometry Nodes tree above the stage leaves its shading values there (the fine wrinkles'
+shrinkage, ``glue.bando.fine_tree``), and the stand-in reads them back with the positions.
 
 The exporter applies the face's whole modifier stack, deformers after the Wrinkles
 modifier included, except a Catmull-Clark Subdivision Surface that is the last modifier
@@ -150,7 +152,7 @@ def bake(context, face, filepath, frame_start, frame_end):
         frame = context.scene.frame_current
         bpy.ops.wm.alembic_export(
             filepath=path, start=frame_start, end=frame_end, selected=True, flatten=True,
-            uvs=False, normals=False, vcolors=False, orcos=False, face_sets=False,
+            uvs=True, normals=False, vcolors=False, orcos=False, face_sets=False,
             apply_subdiv=False, export_hair=False, export_particles=False,
             export_custom_properties=False, evaluation_mode="RENDER", as_background_job=False,
         )
@@ -178,8 +180,9 @@ def _stand_in(face, filepath):
     baked = bpy.data.objects.new(face.name + BAKE_SUFFIX, me)
     cache = None
     try:
-        for name in (stage.OFFSET_ATTR, stage.SKIN_ATTR):
-            if me.attributes.get(name) is not None:
+        ours = (stage.OFFSET_ATTR, stage.SKIN_ATTR, stage.PULL_ATTR)
+        for name in [a.name for a in me.attributes]:  # the stage's, and what trees of ours read
+            if name in ours or name.startswith(".ewrinkles_"):
                 me.attributes.remove(me.attributes[name])
         for coll in face.users_collection:
             coll.objects.link(baked)
@@ -191,7 +194,7 @@ def _stand_in(face, filepath):
         cache = _open_cache(bpy.path.abspath(filepath))
         mod = baked.modifiers.new(CACHE_MODIFIER, "MESH_SEQUENCE_CACHE")
         mod.cache_file = cache
-        mod.read_data = {"VERT"}
+        mod.read_data = {"VERT", "UV"}  # the UV maps carry the trees' per-frame shading values
         mod.object_path = _object_path(face, cache)
         # the one modifier the exporter left unapplied (a final Subdivision Surface)
         src = _left_to_stand_in(face)

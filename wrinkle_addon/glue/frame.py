@@ -63,7 +63,7 @@ _builds = itertools.count()  # serial numbers of static builds
 
 class _FaceState:
     __slots__ = ("key", "mesh", "scratch", "statics", "plan", "plan_key", "out", "skin", "positions",
-                 "orig_inputs", "shown")
+                 "orig_inputs", "shown", "pull_written")
 
     def __init__(self):
         self.key = None
@@ -74,6 +74,7 @@ class _FaceState:
         self.plan_key = None
         self.orig_inputs = None  # the inputs whose offsets the original mesh holds
         self.shown = None  # the positions the evaluated mesh shows after our last write
+        self.pull_written = True  # the original mesh may hold a pull (unknown: assume it does)
 
 
 def status_of(ob):
@@ -132,6 +133,21 @@ def _static(state, source, ob, in_scene, changes):
     data = source.build(ob, state.mesh, in_scene)
     state.statics[source.name] = (key, data, next(_builds))
     return data
+
+
+def _nothing_to_do(ob, active, changes, in_scene):
+    """Whether a viewport frame has no work on a face whose active sources all compute nothing
+    per frame (``per_frame`` False) and keep their static data (``unchanged``)."""
+    if any(s.per_frame for s in active):
+        return False
+    state = _cache.get(ob.session_uid)
+    if state is None or in_scene is None:
+        return False
+    for s in active:
+        cached = state.statics.get(s.name)
+        if cached is None or not s.unchanged(ob, cached[1], changes, in_scene):
+            return False
+    return True
 
 
 def _plan(state, geometric, statics):
@@ -229,7 +245,8 @@ def _contributions(ob, active, statics, skin, inputs, failed):
     whose ``contribute`` raised, see :func:`_run`).  A source that moves the skin
     tangentially (Waters' pull) deforms it for the sources after it: their compression and
     shrinkage see the pulled skin.  Heights never feed back: every source reads the skin
-    before any wrinkle."""
+    before any wrinkle.  Returns the contributions and the pulled skin (``skin`` itself where
+    no source moved it)."""
     out, deformed = [], skin
     for i, (s, frame_in) in enumerate(zip(active, inputs)):
         c = _run(ob, s, failed, s.contribute, ob, statics[s.name], deformed, frame_in)
@@ -240,7 +257,7 @@ def _contributions(ob, active, statics, skin, inputs, failed):
             if deformed is skin:
                 deformed = skin.copy()
             deformed[statics[s.name].footprint.offset_verts] += c.offset.T
-    return out
+    return out, deformed
 
 
 def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=None, changes=None):
@@ -255,6 +272,8 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
     active = [s for s in registry.sources() if (enabled or not s.geometric) and s.active(ob)]
     if not active and not enabled:
         return False
+    if not enabled and changes is not None and _nothing_to_do(ob, active, changes, in_scene):
+        return False  # what there is Blender computes itself, and nothing it reads changed
     why = faces.problem(ob)
     if why is None and (ob.mode == "EDIT" or ob.data.is_editmode):  # also through another object
         why = "Paused in Edit Mode"
@@ -302,7 +321,7 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
         if (old_inputs == inputs and np.array_equal(old_skin, skin)
                 and (not enabled or stage.holds_frame(me, depsgraph))):
             return False
-    contributions = _contributions(ob, active, statics, skin, inputs[2:], failed)
+    contributions, pulled = _contributions(ob, active, statics, skin, inputs[2:], failed)
     problems = {s.name: _run(ob, s, failed, s.problems, ob, statics[s.name]) for s in active}
     if not enabled:
         if not _write_shading(ob, active, statics, contributions, failed, ev if in_place else None):
@@ -313,11 +332,20 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
         plan = _plan(state, [s for s, _c in geometric], statics)
         parts = [c for _s, c in geometric]
         out = combine.combine(plan, skin, parts, out=state.out)
-        if in_place and stage.output_is_final(ob, mod) and _write_in_place(state, ev, skin, out):
+        # a tree above the stage measures the skin plus the pull: it sees a pull only in the
+        # original mesh, so a frame with one (or the first after one) is written back
+        reads_pull = any(s.reads_pull for s in active)
+        pull_frame = reads_pull and (pulled is not skin or state.pull_written)
+        if (in_place and not pull_frame and stage.output_is_final(ob, mod)
+                and _write_in_place(state, ev, skin, out)):
             _write_shading(ob, active, statics, contributions, failed, ev)
         else:
             _write_shading(ob, active, statics, contributions, failed)
             meshio.write_vectors(me, stage.OFFSET_ATTR, out)
+            if pull_frame:
+                meshio.point_attribute(me, stage.PULL_ATTR, "FLOAT_VECTOR")
+                meshio.write_vectors(me, stage.PULL_ATTR, pulled - skin)
+                state.pull_written = pulled is not skin
             stage.stamp(ob, depsgraph)
             me.update_tag()
             state.orig_inputs = (skin.copy(), inputs)
@@ -532,6 +560,7 @@ def on_load_post(*_args):
     _is_face.clear()
     _pending.clear()
     status.clear()
+    registry.upgrade_all(bpy.data)
 
 
 @persistent

@@ -32,6 +32,15 @@ def ensure_group(name, tree_type, version, build, error, key="ewrinkles_version"
     return ng
 
 
+def nodes_modifier(ob, group_name):
+    """The first Geometry Nodes modifier of ``ob`` whose group is ``group_name`` (or a copy of
+    it, "<name>.001"), or None."""
+    for mod in ob.modifiers:
+        if mod.type == "NODES" and mod.node_group is not None and mod.node_group.name.startswith(group_name):
+            return mod
+    return None
+
+
 def float_inputs(ng, specs):
     """Add a float input to the group ``ng`` for each ``(name, default, min, max, tooltip)``."""
     for name, default, lo, hi, tip in specs:

@@ -36,12 +36,22 @@ class WrinkleSource:
     * ``properties``: ``((attribute, PropertyGroup class), ...)`` hung on the face's
       settings (``Object.ewrinkles_face.<attribute>``) while the source is registered
       (``sources.add``).
+    * ``reads_pull``: Blender computes the source's values itself, in a Geometry Nodes tree
+      above the Wrinkles modifier that measures the skin plus the tangential offsets of the
+      sources before it (``glue.stage.PULL_ATTR``).  The stage then writes that pull with
+      the offsets, and writes back rather than in place on the frames that have one.
+    * ``per_frame``: False when the source computes nothing per frame (Blender does, in the
+      face's modifiers): on a viewport frame that leaves its static data as it is
+      (:meth:`unchanged`), the stage does not visit a face on which only such sources are
+      active.  Renders, exports, edits and saving still check everything.
     """
 
     name = ""
     label = ""
     geometric = True
     properties = ()
+    reads_pull = False
+    per_frame = True
 
     # --- per frame -------------------------------------------------------------------
     def active(self, face):
@@ -117,6 +127,13 @@ class WrinkleSource:
     def free_bake(self, face):
         """Undo :meth:`bake`."""
 
+    # --- files of older versions -------------------------------------------------------
+    def upgrade(self, face):
+        """Bring what an older version of the add-on stored on the mesh object ``face`` up to
+        date (on every file load, and when the add-on is enabled with a file open).  Returns
+        a line for the console when it changed something, else ""."""
+        return ""
+
     # --- panel -------------------------------------------------------------------------
     def draw(self, layout, context, face):
         """Draw the source's part of the face panel."""
@@ -135,6 +152,21 @@ def add(source):
     if any(s.name == source.name for s in _sources):
         raise ValueError(f"a wrinkle source named {source.name!r} is already registered")
     _sources.append(source)
+
+
+def upgrade_all(data):
+    """Every source's :meth:`upgrade` on every local mesh object of ``data``; a line on the
+    console for each change, and for each failure (the file opens whatever happens)."""
+    for ob in data.objects:
+        if ob.type != "MESH" or ob.library is not None:
+            continue
+        for source in _sources:
+            try:
+                line = source.upgrade(ob)
+            except Exception as exc:  # a file must open whatever it holds
+                line = f"could not bring {source.label or source.name} up to date: {exc}"
+            if line:
+                print(f"Expression Wrinkles: {ob.name}: {line}")
 
 
 def remove(source):

@@ -9,7 +9,9 @@ evaluated mesh, so wrinkles never feed back into the compression they are
 computed from.  The tree needs no Python to evaluate, so saved files render
 without the add-on, with the offset of the frame they were saved on.
 
-Every write of the offsets also writes the frame they belong to (``wrinkle_frame``).
+Every write of the offsets also writes the frame they belong to (``wrinkle_frame``), and,
+where a tree above the stage measures the skin (the fine wrinkles' shrinkage), the part of
+them that moves the skin tangentially (``wrinkle_pull``).
 The tree applies the offsets only on that frame: where the add-on is missing, every other
 frame renders without wrinkles instead of with another frame's (stale) wrinkles.
 """
@@ -25,9 +27,15 @@ MODIFIER_NAME = "Wrinkles"
 SKIN_ATTR = "wrinkle_skin"
 OFFSET_ATTR = "wrinkle_offset"
 FRAME_ATTR = "wrinkle_frame"
+# the tangential part of the offsets (Waters' pull), written with them for the trees that
+# measure the skin as the sources do (glue.bando.fine_tree): stamped by FRAME_ATTR too
+PULL_ATTR = "wrinkle_pull"
+# a Geometry Nodes group tagged with this reads the skin the stage receives: Enable Wrinkles
+# puts the stage directly below its modifier
+READS_SKIN = "ewrinkles_reads_skin"
 VERSION = 2  # 2: the offsets apply only on the frame they were computed for
 FRAME_EPSILON = 0.001  # the tree applies the offsets where |frame - wrinkle_frame| <= this
-_TOPOLOGY_MODIFIERS = {
+TOPOLOGY_MODIFIERS = {
     "SUBSURF", "MULTIRES", "REMESH", "DECIMATE", "TRIANGULATE", "BEVEL", "SOLIDIFY", "MIRROR",
     "ARRAY", "BOOLEAN", "SKIN", "WELD", "SCREW", "EDGE_SPLIT", "WIREFRAME", "MASK", "BUILD",
 }
@@ -86,14 +94,12 @@ def ensure_group():
 
 
 def find_modifier(ob):
-    for mod in ob.modifiers:
-        if mod.type == "NODES" and mod.node_group is not None and mod.node_group.name.startswith(GROUP_NAME):
-            return mod
-    return None
+    return nodes.nodes_modifier(ob, GROUP_NAME)
 
 
 def ensure_modifier(ob):
-    """Add the stage after the deformers and before the first topology-changing modifier."""
+    """Add the stage after the deformers and before the first topology-changing modifier; a
+    tree that measures its skin (``READS_SKIN``) goes directly above it."""
     mod = find_modifier(ob)
     if mod is None:
         mod = ob.modifiers.new(MODIFIER_NAME, "NODES")
@@ -101,15 +107,23 @@ def ensure_modifier(ob):
         mod.show_in_editmode = False
         index = len(ob.modifiers) - 1
         for i, other in enumerate(ob.modifiers):
-            if other.type in _TOPOLOGY_MODIFIERS:
+            if other.type in TOPOLOGY_MODIFIERS:
                 index = i
                 break
         if index != len(ob.modifiers) - 1:
             ob.modifiers.move(len(ob.modifiers) - 1, index)
+        for reader in [m for m in ob.modifiers if _reads_skin(m)]:  # directly above the stage
+            mods = list(ob.modifiers)
+            here, there = mods.index(reader), mods.index(mod)
+            ob.modifiers.move(here, there - 1 if here < there else there)
     mod.show_viewport = True
     mod.show_render = True
     ensure_offset_attribute(ob.data)
     return mod
+
+
+def _reads_skin(mod):
+    return mod.type == "NODES" and mod.node_group is not None and bool(mod.node_group.get(READS_SKIN))
 
 
 def order_problem(ob, mod, evaluated_count):
@@ -122,8 +136,8 @@ def order_problem(ob, mod, evaluated_count):
     n = len(ob.data.vertices)
     index = list(ob.modifiers).index(mod)
     active = [m for m in ob.modifiers if m.show_viewport or m.show_render]
-    before = [m for m in active if list(ob.modifiers).index(m) < index and m.type in _TOPOLOGY_MODIFIERS]
-    reorders = (_TOPOLOGY_MODIFIERS | {"NODES"}) - {"SUBSURF"}
+    before = [m for m in active if list(ob.modifiers).index(m) < index and m.type in TOPOLOGY_MODIFIERS]
+    reorders = (TOPOLOGY_MODIFIERS | {"NODES"}) - {"SUBSURF"}
     after = [m for m in active if list(ob.modifiers).index(m) > index and m.type in reorders]
     if before:
         return (f'The modifier "{before[0].name}" comes before Wrinkles and changes the vertex count: '
@@ -185,7 +199,7 @@ def remove(ob):
     if mod is not None:
         ob.modifiers.remove(mod)
     me = ob.data
-    for name in (OFFSET_ATTR, SKIN_ATTR, FRAME_ATTR):
+    for name in (OFFSET_ATTR, SKIN_ATTR, FRAME_ATTR, PULL_ATTR):
         att = me.attributes.get(name)
         if att is not None:
             me.attributes.remove(att)

@@ -98,7 +98,8 @@ class WRINKLE_OT_bake(bpy.types.Operator):
         geometry = bake.has_stage(face)
         baking = [s for s in registry.sources() if s.bakes(face)]
         if not geometry and not baking:
-            raise WrinkleError(f'"{face.name}" has neither wrinkles nor wrinkle maps to bake')
+            raise WrinkleError(f'"{face.name}" has nothing to bake: it has no geometric wrinkles or wrinkle '
+                               "maps, and what else it has Blender computes on a farm by itself")
         path = self.filepath or bake.default_path(face)
         # every precondition, the geometry's and each source's, before anything changes
         if end < start:

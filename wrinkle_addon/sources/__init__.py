@@ -44,6 +44,10 @@ def remove(source):
 def register():
     for source in SOURCES:
         add(source)
+    try:  # enabled with a file open: what an older version saved in it, brought up to date
+        registry.upgrade_all(bpy.data)
+    except AttributeError:  # bpy.data is restricted while Blender starts up
+        pass
 
 
 def unregister():

@@ -1,34 +1,34 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Fine-scale wrinkles (Bando, Kuratate & Nishita 2002, §5 and §7) as a wrinkle source: the
-carved height images live in the material (``Fine Wrinkles`` node group); every frame this
-source measures the skin's shrinkage across each of the two direction fields (eq. 4) and
-writes it as two point attributes, which the group turns into ``M(s)`` (eq. 5)."""
+carved height images live in the material (``Fine Wrinkles`` node group), and Blender
+itself measures the skin's shrinkage across each of the two direction fields every frame
+(eq. 4), in the face's *Fine Wrinkles* Geometry Nodes modifier (``glue.bando.fine_tree``),
+which the group turns into ``M(s)`` (eq. 5).  The source keeps the modifier's stored plan in
+step with the mesh (an edit of the mesh or its UVs plans it again) and reports what stops
+it; it has nothing to compute per frame."""
 
-import numpy as np
-
-from ..core import combine
-from ..core.bando import fine, mapped
+from ..core.bando import mapped
 from ..glue import meshio, surface
 from ..glue.bando import fine as fine_glue
-from ..glue.bando import shading
+from ..glue.bando import fine_tree
 from ..glue.registry import WrinkleSource
 from ..props.bando import WrinkleFineSettings
 from ..ui import bando as bando_ui
 
 
 class _Static:
-    __slots__ = ("plan", "problem", "out")
+    __slots__ = ("plan", "problem")
 
     def __init__(self, plan=None, problem=""):
         self.plan, self.problem = plan, problem
-        # the frame's two shrinkages, written in place: the stage writes them right away
-        self.out = None if plan is None else np.empty((2, plan.n_verts), np.float32)
 
 
 class FineSource(WrinkleSource):
     name = fine_glue.SOURCE
     label = "Fine Wrinkles"
     geometric = False  # shading only: runs on any face that has carved fine wrinkles
+    reads_pull = True  # the modifier measures the skin plus the muscles' pull
+    per_frame = False  # Blender computes the shrinkage: no Python per frame
     properties = (("fine_wrinkles", WrinkleFineSettings),)
 
     def active(self, face):
@@ -55,36 +55,17 @@ class FineSource(WrinkleSource):
             fields = fine_glue.read_fields(face, s, m)
             if fields is None:
                 return _Static(problem="The fine wrinkles' direction fields are missing: carve them again")
-            return _Static(fine.plan(m, mesh.rest, fields[0], fields[1]))
+            return _Static(fine_glue.store_plan(face, s, m, fields))  # written if it differs
         except surface.SurfaceError as exc:
             return _Static(problem=str(exc))
         except ValueError as exc:  # the core's checks (non-finite fields, say)
             return _Static(problem=f"Fine wrinkles: {exc}. Carve them again")
 
-    def contribute(self, face, static, skin, inputs):
-        if static.plan is None:
-            return combine.Contribution()
-        s1, s2 = fine.shrinkages(static.plan, skin, static.out)
-        return combine.Contribution(attributes={shading.S1_ATTR: s1, shading.S2_ATTR: s2})
-
     def problems(self, face, static):
-        return static.problem
+        return static.problem or fine_tree.order_problem(face)
 
-    def bake(self, face, scene, frame_start, frame_end, progress):
-        n = fine_glue.bake_shrinkage(face, scene, frame_start, frame_end, progress)
-        return f"the fine wrinkles' shrinkage of {n} frame(s) as an image sequence"
-
-    def bakes(self, face):
-        return self.active(face) and fine_glue.can_bake(face)
-
-    def check(self, face, scene, frame_start, frame_end):
-        return fine_glue.bake_problem(face)
-
-    def has_bake(self, face):
-        return fine_glue.has_baked_shrinkage(face)
-
-    def free_bake(self, face):
-        fine_glue.free_baked_shrinkage(face)
+    def upgrade(self, face):
+        return fine_glue.upgrade(face)
 
     def draw(self, layout, context, face):
         bando_ui.draw_face_fine(layout, context, face)

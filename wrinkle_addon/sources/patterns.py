@@ -18,18 +18,41 @@ from ..ui import patterns as patterns_ui
 
 
 class _Static:
-    __slots__ = ("plan", "layer_of", "footprint", "problem")
+    __slots__ = ("plan", "layer_of", "placed", "footprint", "problem")
 
-    def __init__(self, layers=(), layer_of=(), problem=""):
+    def __init__(self, layers=(), layer_of=(), placed=(), problem=""):
         self.plan = patterns.plan(layers)
         self.layer_of = tuple(layer_of)  # the stack index of each built layer
+        self.placed = tuple(placed)  # where each layer's frame was when it was built
         self.footprint = combine.Footprint(height_verts=self.plan.footprint)
         self.problem = problem
 
 
-def _frame_key(lay):
+def _frame_key(face, lay):
+    """What of the layer's frame the static data depends on: the Empty, and for a region
+    around it, where it is on the face (to a micrometre of the face's units: a frame moving
+    with the face must not rebuild from float noise).  Its turn and scale only place the
+    pattern, which every frame does again (``inputs``)."""
     ob = lay.frame
-    return None if ob is None else (ob.name, tuple(map(tuple, ob.matrix_world)))
+    if ob is None:
+        return None
+    try:
+        around = glue.setting(lay, "region") == "RADIUS"
+    except glue.PatternError:  # a value this version does not know: build_layer says so
+        around = False
+    if not around:
+        return (ob.name,)
+    centre = face.matrix_world.inverted_safe() @ ob.matrix_world.translation
+    return (ob.name,) + tuple(round(c, 6) for c in centre)
+
+
+def _placement(face_matrix, face_inverse, lay):
+    """Where the layer's frame is this frame: the face-to-frame matrix (16 floats, row by
+    row) and the length of the frame's z in the face's units (``glue.to_frame``), in
+    mathutils alone (a few microseconds a layer)."""
+    frame = lay.frame.matrix_world
+    m = frame.inverted_safe() @ face_matrix
+    return tuple(v for row in m for v in row), (face_inverse.to_3x3() @ frame.col[2].xyz).length
 
 
 class PatternSource(WrinkleSource):
@@ -44,48 +67,59 @@ class PatternSource(WrinkleSource):
     def static_key(self, face, in_scene):
         marks = landmarks.landmark_positions(face)
         marks = None if marks is None else tuple(tuple(v) for v in marks.values())
-        key = [tuple(map(tuple, face.matrix_world)), meshio.topology_key(face.data), marks]
+        # the face's scale (radius and border are scene lengths), not where it is: the
+        # layers live in its space
+        key = [round(glue.face_unit(face), 9), meshio.topology_key(face.data), marks]
         for lay in face.ewrinkles_face.patterns.layers:
             in_it = lay.frame is not None and lay.frame.session_uid in in_scene
             numbers = tuple(glue.setting(lay, p) for p in ("radius", "border", "fraction", "seed"))
-            key.append((lay.kind, lay.shape, lay.region, lay.drive, _frame_key(lay), in_it, lay.vertex_group)
-                       + numbers)  # what build_layer reads (a stored NaN reads as the default)
+            # what build_layer reads (a stored NaN reads as the default)
+            key.append((lay.kind, lay.shape, lay.region, lay.drive, _frame_key(face, lay), in_it,
+                        lay.vertex_group) + numbers)
         return tuple(key)
 
     def build(self, face, mesh, in_scene):
-        layers, index, problems = [], [], []
+        layers, index, placed, problems = [], [], [], []
+        fw, inverse = face.matrix_world, face.matrix_world.inverted_safe()
         for i, lay in enumerate(face.ewrinkles_face.patterns.layers):
             try:
                 layers.append(glue.build_layer(face, mesh, lay))
                 index.append(i)
+                placed.append(_placement(fw, inverse, lay))
             except glue.PatternError as exc:
                 problems.append(str(exc))
-        return _Static(layers, index, "; ".join(problems))
+        return _Static(layers, index, placed, "; ".join(problems))
 
     def inputs(self, face, static):
         st = face.ewrinkles_face.patterns.layers
         scene = bpy.context.scene
         render = frame_stage.render_frame()
+        fw, inverse = face.matrix_world, face.matrix_world.inverted_safe()
         out = []
         for i in static.layer_of:
             lay = st[i] if i < len(st) else None
             if lay is None or not (lay.show_render if render else lay.show_viewport):
-                out.append((0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+                out.append(((0.0, 0.0, 0.0, 0.0, 0.0, 0.0), None))
                 continue
             full = glue.setting(lay, "full_compression") if lay.drive == "COMPRESSION" else 0.0
-            out.append(glue.values(face, lay, scene) + (full,))
+            placed = _placement(fw, inverse, lay) if lay.frame is not None else None
+            out.append((glue.values(face, lay, scene) + (full,), placed))
         return tuple(out)
 
     def contribute(self, face, static, skin, inputs):
         if len(static.plan.footprint) == 0:
             return combine.Contribution()
-        vals = []
-        for lay, v in zip(static.plan.layers, inputs):
+        vals, layers = [], []
+        for lay, (v, placed), built in zip(static.plan.layers, inputs, static.placed):
             t, strength, a, b, g, full = v
+            if placed is not None and placed != built and strength != 0.0:  # its frame moved
+                lay = patterns.in_frame(lay, placed[0], placed[1])
             if full > 0.0 and strength != 0.0:  # driven by the region's compression
                 strength *= min(patterns.compression(lay, skin) / full, 1.0)
             vals.append((t, strength, a, b, g))
-        return combine.Contribution(height=patterns.heights(static.plan, vals).astype(np.float32))
+            layers.append(lay)
+        plan = patterns.Plan(tuple(layers), static.plan.footprint, static.plan.index)
+        return combine.Contribution(height=patterns.heights(plan, vals).astype(np.float32))
 
     def map_heights(self, face, mesh, skin, formed):
         static = self.build(face, mesh, {o.session_uid for o in bpy.context.scene.objects})
@@ -95,7 +129,7 @@ class PatternSource(WrinkleSource):
             return None
         vals = self.inputs(face, static)
         if formed:  # every layer at full strength: the map's zone weights animate it
-            vals = tuple(v[:1] + (1.0 if any(v) else 0.0,) + v[2:5] + (0.0,) for v in vals)
+            vals = tuple((v[:1] + (1.0 if any(v) else 0.0,) + v[2:5] + (0.0,), placed) for v, placed in vals)
         out = np.zeros(len(mesh.rest), np.float32)
         out[static.plan.footprint] = self.contribute(face, static, skin, vals).height
         return out

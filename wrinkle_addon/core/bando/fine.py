@@ -10,6 +10,9 @@ each field that modulates them.
 * :func:`plan` / :func:`shrinkages` measure, per frame, the shrinkage ``s`` (eq. 4) across
   each field at every mesh vertex; the shader scales each height image by ``M(s)`` (eq. 5) of its own
   field's shrinkage.  A vertex on a UV seam takes the value of one of its copies.
+* :func:`vertex_slots` lays a plan out per vertex, as the face's Geometry Nodes tree reads it
+  (``glue.bando.fine_tree``): Blender computes the frames' shrinkage itself, and
+  :func:`slot_shrinkages` is the line-by-line NumPy transcription of that tree.
 """
 
 import numpy as np
@@ -87,3 +90,48 @@ def shrinkages(fine_plan, skin, out=None):
     :func:`field.shrinkage` at each vertex's copy (tested)."""
     flat = None if out is None else out.reshape(-1)
     return field.edge_slot_shrinkage(fine_plan, skin, flat).reshape(2, -1)
+
+
+class VertexSlots:
+    """A :func:`plan` laid out per mesh vertex for the face's Geometry Nodes tree: for field
+    ``f`` (0, 1) and slot ``j`` (0..3), ``far[f, j]`` (N,) int32 the vertex at the far end of
+    the slot's edge and ``coef[f, j]`` (N,) float32 its coefficient (``a'`` or ``b'`` of
+    eq. 4; slots 0, 1 are one side of the vertex, 2, 3 the other); ``share[f]`` (N,)
+    float32, 1 where the vertex has a side, 0 where ``s = 0`` (no direction, or in no
+    triangle)."""
+
+    __slots__ = ("far", "coef", "share")
+
+    def __init__(self, far, coef, share):
+        self.far, self.coef, self.share = far, coef, share
+
+
+def vertex_slots(fine_plan):
+    """The :class:`VertexSlots` of a :func:`plan`: each slot's edge as the vertex at its far
+    end, the coefficients and shares as the plan holds them (float32, so the tree computes
+    exactly what :func:`shrinkages` does)."""
+    n = fine_plan.n_verts
+    rows = np.asarray(fine_plan.offsets)
+    if len(rows) != 3 or rows[1] != n or rows[2] != 2 * n:
+        raise ValueError("vertex_slots needs a fine-wrinkle plan: two fields of one row per vertex")
+    edge = fine_plan.slot_edge.reshape(4, 2, n).transpose(1, 0, 2)  # (field, slot, vertex)
+    a, b = fine_plan.ends[0][edge], fine_plan.ends[1][edge]
+    far = np.where(a == np.arange(n), b, a).astype(np.int32)
+    coef = np.ascontiguousarray(fine_plan.slot_coef.reshape(4, 2, n).transpose(1, 0, 2), np.float32)
+    share = np.where(fine_plan.none, 0.0, fine_plan.share).reshape(2, n).astype(np.float32)
+    return VertexSlots(np.ascontiguousarray(far), coef, share)
+
+
+def slot_shrinkages(slots, skin):
+    """Both fields' shrinkage (2, N) float32 from :class:`VertexSlots` and the skin (N, 3)
+    float32, computed as the Geometry Nodes tree does, node by node: per slot the distance to
+    the far vertex (at least 1e-30), the coefficient over it; per side the reciprocal of the
+    sum of its two; ``s = (share - side 1 - side 2) * share``.  Equal to :func:`shrinkages`
+    (tested): the tree is this transcription."""
+    p = np.asarray(skin, np.float32)
+    d = p[slots.far] - p  # (2, 4, N, 3)
+    length = np.maximum(np.sqrt((d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1]) + d[..., 2] * d[..., 2]),
+                        np.float32(1e-30))
+    q = slots.coef / length
+    side = np.float32(1.0) / (q[:, 0] + q[:, 1]), np.float32(1.0) / (q[:, 2] + q[:, 3])
+    return (slots.share - (side[0] + side[1])) * slots.share

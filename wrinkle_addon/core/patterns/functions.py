@@ -47,7 +47,7 @@ cheek's rings are no fold.  Beside each is a variant, ``shape`` ``FACE`` (:data:
 and place each type's frame from the face's landmarks.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -385,7 +385,8 @@ class Layer:
     their local coordinates ``x``, ``y`` (K,) in the frame, their ``weight`` (K,) (damping
     times the valid vertices), the frame's ``scale`` (a local height unit in the face's
     units) and the region's edges ``edges`` (E, 2) with their ``rest_length`` (E,), for a
-    strength driven by the compression."""
+    strength driven by the compression; ``rest`` (K, 3) the region's rest positions in the
+    face's space, from which :func:`in_frame` places it in a frame that moved."""
 
     kind: str
     verts: np.ndarray
@@ -396,6 +397,7 @@ class Layer:
     edges: np.ndarray
     rest_length: np.ndarray
     shape: str = "PAPER"
+    rest: np.ndarray = None
 
 
 def layer(kind, local, rest, edges, weight, fraction=1.0, seed=0, scale=1.0, shape="PAPER"):
@@ -412,7 +414,18 @@ def layer(kind, local, rest, edges, weight, fraction=1.0, seed=0, scale=1.0, sha
     rest = np.asarray(rest, np.float64)
     length = np.linalg.norm(rest[e[:, 0]] - rest[e[:, 1]], axis=1)
     local = np.asarray(local, np.float64)
-    return Layer(kind, verts, local[verts, 0], local[verts, 1], w, float(scale), e, length, shape)
+    return Layer(kind, verts, local[verts, 0], local[verts, 1], w, float(scale), e, length, shape,
+                 rest[verts])
+
+
+def in_frame(lay, face_to_frame, scale):
+    """``lay`` with its region in a frame that moved: ``x``, ``y`` of its rest positions through
+    the 4x4 matrix ``face_to_frame`` (face space -> the frame's), and the frame's ``scale``.
+    O(K), the region's size: the rest of the static data (the region, its damping and valid
+    vertices, its edges) does not depend on where the frame is."""
+    m = np.asarray(face_to_frame, np.float64).reshape(4, 4)
+    local = lay.rest @ m[:3, :3].T + m[:3, 3]
+    return replace(lay, x=local[:, 0], y=local[:, 1], scale=float(scale))
 
 
 def compression(lay, skin):

@@ -5,8 +5,9 @@ Wrinkles`` node group into the face's material.
 
 What the file keeps, so the result survives saving and reopening with or without the
 add-on: the two height images (packed), the two fields as corner attributes of the mesh
-(``FIELD_ATTRS``: the frame stage measures the shrinkage across them), the artist's
-directions on vertices (``GUIDE_ATTR``), and the material's nodes.
+(``FIELD_ATTRS``), the artist's directions on vertices (``GUIDE_ATTR``), the plan of the
+shrinkage across the fields and the *Fine Wrinkles* modifier that measures it every frame
+(``fine_tree``), and the material's nodes.
 """
 
 import bpy
@@ -15,13 +16,12 @@ import numpy as np
 from ...core import raster
 from ...core.bando import field, fine, mapped, parts
 from ...core.muscles import system
-from .. import bake as geometry_bake
 from .. import frame as frame_stage
 from .. import images, meshio, nodes, surface
 from ..errors import WrinkleError
 from ..muscles import landmarks
 from ..muscles import objects as muscle_objects
-from . import curves, shading
+from . import curves, fine_tree, shading
 
 GUIDE_ATTR = "ewrinkles_fine_guide"  # point vectors (face space): directions on vertices
 FIELD_ATTRS = ("ewrinkles_fine_field1", "ewrinkles_fine_field2")  # corner 2-D (UV) vectors
@@ -294,127 +294,66 @@ def carve(context, face, progress):
     fs.coverage = float(results[0].coverage)
     step("Wiring the material")
     setup_material(face)
+    store_plan(face, s, m, read_fields(face, s, m))  # as stored: what the frame stage plans from
+    fine_tree.ensure_modifier(face)
     frame_stage.forget(face, SOURCE)
     return results
 
 
-# --------------------------------------------------------------------------- farm bake
-BAKE_NODE = "Fine Wrinkles Baked Shrinkage"
-BAKE_RESOLUTION = 512  # the shrinkage varies slowly over the skin: a 512 map is plenty
-BAKE_PADDING = 4  # pixels of edge padding around the UV islands (bilinear reads at borders)
+# --------------------------------------------------------------------------- the modifier's plan
+def store_plan(face, s, m, fields):
+    """Plan the shrinkage of both ``fields`` on the face's surface ``s`` and mapped mesh ``m``
+    and store it for the *Fine Wrinkles* modifier (only if the mesh holds another).  Returns
+    the plan (``core.bando.fine.plan``)."""
+    plan = fine.plan(m, s.rest, fields[0], fields[1])
+    fine_tree.write_slots(face.data, fine.vertex_slots(plan))
+    return plan
+
+
+# Before the modifier (version 0.x of this file's layout): the frame stage wrote the shrinkage
+# as these point attributes every frame, and Bake for Farm an OpenEXR image sequence that
+# the material read through this node.
+LEGACY_ATTRS = ("ewrinkles_fine_s1", "ewrinkles_fine_s2")
+LEGACY_BAKE_NODE = "Fine Wrinkles Baked Shrinkage"
+
+
+def upgrade(face):
+    """A face carved before the *Fine Wrinkles* modifier existed gets it, with its plan; the
+    shader group is brought up to date in place (its links stay), the image sequence's node
+    of a farm bake goes (the files on disk are kept), and the per-frame attributes too.
+    Returns a line for the console, or "" when there was nothing to do."""
+    fs = settings(face)
+    if fs.image_1 is None or fine_tree.find_modifier(face) is not None:
+        return ""
+    shading.ensure_fine_group()
+    said = "its fine wrinkles' shrinkage is computed by a new Fine Wrinkles modifier"
+    nt, _group = _group_node(face)
+    tex = nt.nodes.get(LEGACY_BAKE_NODE) if nt is not None else None
+    if tex is not None:
+        image = tex.image
+        nt.nodes.remove(tex)
+        if image is not None and image.users == 0:
+            bpy.data.images.remove(image)
+        said += "; the image sequence of its farm bake is no longer needed (its files are kept)"
+    s = surface.Surface(face, fs.uv_map or None)
+    m = mapped.mapped_mesh(s.tris, s.uv, len(s.rest))
+    fields = read_fields(face, s, m)
+    if fields is None:
+        return "its fine wrinkles' direction fields are missing: carve them again"
+    store_plan(face, s, m, fields)
+    fine_tree.ensure_modifier(face)
+    me = face.data
+    for name in LEGACY_ATTRS:
+        att = me.attributes.get(name)
+        if att is not None:
+            me.attributes.remove(att)
+    return said
 
 
 def _group_node(face):
     mat = settings(face).material
     nt = mat.node_tree if mat is not None else None
     return (nt, nt.nodes.get(GROUP_NODE)) if nt is not None else (None, None)
-
-
-def can_bake(face):
-    return _group_node(face)[1] is not None
-
-
-def has_baked_shrinkage(face):
-    nt, _node = _group_node(face)
-    return nt is not None and nt.nodes.get(BAKE_NODE) is not None
-
-
-def _shrinkage_now(face, n):
-    """The shrinkage attributes (2, n) the frame stage wrote for the current frame: into the
-    evaluated mesh on viewport frames, when it has the face's n vertices, else into the
-    original mesh (a final Subdivision Surface gives the evaluated mesh more vertices)."""
-    ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
-    out = np.zeros((2, n), np.float32)
-    for k, name in enumerate((shading.S1_ATTR, shading.S2_ATTR)):
-        for me in (ev, face.data):
-            att = me.attributes.get(name)
-            if att is not None and att.domain == "POINT" and att.data_type == "FLOAT" and len(att.data) == n:
-                att.data.foreach_get("value", out[k])
-                break
-    return out
-
-
-def bake_problem(face):
-    """Why :func:`bake_shrinkage` cannot run on ``face`` now, or "" (checked before any bake)."""
-    if _group_node(face)[1] is None:
-        return f'"{face.name}" has no fine wrinkles in its material to bake'
-    if not bpy.data.filepath:
-        return "Save the .blend file first: the bake is written next to it"
-    try:
-        surface.Surface(face, settings(face).uv_map or None)
-    except surface.SurfaceError as exc:
-        return str(exc)
-    return ""
-
-
-def bake_shrinkage(face, scene, frame_start, frame_end, progress):
-    """Bake the shrinkage across both fields, frame by frame, for a farm with no add-on:
-    an OpenEXR (full float) image sequence in UV space next to the .blend (red: the first field,
-    green: the second), rasterised with the same linear interpolation across each triangle
-    as the renderer's, and read by the *Fine Wrinkles* group (``Use Baked``).  Returns the
-    number of frames.  ``progress(i, total)``.  Raises FineError."""
-    why = bake_problem(face)
-    if why:
-        raise FineError(why)
-    nt, group = _group_node(face)
-    fs = settings(face)
-    s = surface.Surface(face, fs.uv_map or None)
-    n = len(s.rest)
-    stem = f"{geometry_bake.file_stem(face)}_fine_shrinkage"  # unique per face, as the cache's
-    first = f"//wrinkle_bake/{stem}_{frame_start:04d}.exr"
-    total = frame_end - frame_start + 1
-    here = scene.frame_current
-    try:
-        for i, f in enumerate(range(frame_start, frame_end + 1)):
-            scene.frame_set(f)
-            sh = _shrinkage_now(face, n)
-            values = np.stack([sh[0][s.tris], sh[1][s.tris]], axis=-1)  # (T, 3, 2)
-            img, covered = raster.rasterize(s.uv, values, BAKE_RESOLUTION)
-            img, _grown = raster.pad(img, covered, BAKE_PADDING)
-            px = np.zeros((BAKE_RESOLUTION, BAKE_RESOLUTION, 4), np.float32)
-            px[..., :2], px[..., 3] = img, 1.0
-            # full float: baked in half floats, a face whose rest height is 0 (M(s) = s) rendered
-            # up to 0.026 off the live face in a few pixels of a 64-pixel render, at most 0.004
-            # in full floats (measured on bpy 4.5, tests/blender/test_faults_bake.py)
-            images.write(px, f"//wrinkle_bake/{stem}_{f:04d}.exr", "OPEN_EXR", "32", name=stem)
-            progress(i, total)
-    except images.ImageError as exc:
-        raise FineError(str(exc)) from None
-    finally:
-        scene.frame_set(here)
-    free_baked_shrinkage(face)
-    image = bpy.data.images.load(bpy.path.abspath(first), check_existing=False)
-    image.name = stem
-    image.source = "SEQUENCE"
-    image.filepath = first  # relative to the .blend: the farm finds it
-    image.colorspace_settings.name = images.NON_COLOR
-    x, y = group.location.x, group.location.y
-    tex = nodes.ensure_node(nt, BAKE_NODE, "ShaderNodeTexImage", (x - 400, y - 350))
-    tex.image = image
-    tex.interpolation = "Linear"
-    tex.extension = "EXTEND"
-    user = tex.image_user
-    user.frame_start, user.frame_offset, user.frame_duration = frame_start, frame_start - 1, total
-    user.use_auto_refresh = True
-    nt.links.new(nt.nodes[UV_NODE].outputs["UV"], tex.inputs["Vector"])
-    nt.links.new(tex.outputs["Color"], group.inputs["Baked Shrinkage"])
-    group.inputs["Use Baked"].default_value = 1.0
-    return total
-
-
-def free_baked_shrinkage(face):
-    """Back to the live shrinkage attributes (the baked files are kept)."""
-    nt, group = _group_node(face)
-    if nt is None:
-        return
-    tex = nt.nodes.get(BAKE_NODE)
-    if tex is not None:
-        image = tex.image
-        nt.nodes.remove(tex)
-        if image is not None and image.users == 0:
-            bpy.data.images.remove(image)
-    if group is not None:
-        group.inputs["Use Baked"].default_value = 0.0
 
 
 # --------------------------------------------------------------------------- the material
@@ -479,8 +418,7 @@ def sync(face):
 
 def remove(face):
     """Take the fine wrinkles out of the material (the layer below goes back to the BSDF)
-    and forget the images and fields."""
-    free_baked_shrinkage(face)
+    and forget the images, the fields and the modifier."""
     fs = settings(face)
     mat = fs.material
     if mat is not None and mat.node_tree is not None:
@@ -501,10 +439,7 @@ def remove(face):
         att = me.attributes.get(name)
         if att is not None:
             me.attributes.remove(att)
-    for name in (shading.S1_ATTR, shading.S2_ATTR):
-        att = me.attributes.get(name)
-        if att is not None:
-            me.attributes.remove(att)
+    fine_tree.remove(face)
     fs.image_1 = fs.image_2 = fs.material = None
     fs.furrows = 0
     fs.coverage = 0.0

@@ -9,22 +9,16 @@ amplitude modulation ``M(s)`` (eq. 5) of its own direction's shrinkage ``s`` (§
            r exp((1/r - 1) s)        for s < 0
 
 ``H1``, ``H2`` are the height images (1 = no furrow, the paper's white), ``s1``, ``s2``
-the point attributes the frame stage writes (``S1_ATTR``, ``S2_ATTR``), interpolated across
-each triangle by the renderer as §7 interpolates shrinkage from the three vertices, and
-``r`` the rest height (0.5 by default: fine wrinkles show at rest).  After *Bake for Farm*
-the group reads ``s1``, ``s2`` from the red and green of its ``Baked Shrinkage`` input
-instead (``Use Baked`` = 1): an image sequence of the frames' shrinkage in UV space, which
-renders with no add-on (``glue.bando.fine.bake_shrinkage``).  Each term is its own Bump
+the two components of the corner attribute ``SHRINKAGE_ATTR`` that the face's *Fine
+Wrinkles* modifier computes every frame (``glue.bando.fine_tree``), interpolated across each
+triangle by the renderer as §7 interpolates shrinkage from the three vertices, and ``r`` the
+rest height (0.5 by default: fine wrinkles show at rest).  A farm's stand-in reads the same
+attribute from the Alembic bake, so it renders the same.  Each term is its own Bump
 node, chained from the group's ``Normal`` input, so the group stacks on whatever normal the
 material had (the wrinkle maps' included: ``glue.nodes.normal_input``).  A Bump node
 differentiates its ``Height`` input (at points a fraction of a pixel apart) but not its
 ``Distance``: so ``H - 1`` is the height and ``M(s)`` scales the distance.  The furrows'
-slopes are then ``M(s) ∇H``, the shrinkage the amplitude at the shading point.  Were
-``M(s)`` inside the height, the bump would also differentiate the shrinkage, and the live
-attribute (a plane per triangle, extended past the triangle's edges) and the baked image
-(the neighbouring triangle's values past an edge) give different slopes there: up to 0.02
-in a few pixels of a 64-pixel render where Waters' pull bends the shrinkage (measured on
-bpy 4.5), however fine and exact the image.
+slopes are then ``M(s) ∇H``, the shrinkage the amplitude at the shading point.
 ``core.bando.field.modulation`` is the NumPy reference; a test compares them.
 
 ``Skin Pigment`` is eq. 6 of §8: ``c = b - m a_m - h a_h``, the base colour minus the
@@ -38,9 +32,10 @@ from ..nodes import LAYER_TAG, Builder, principled, use_nodes
 
 FINE_GROUP = "Fine Wrinkles"
 PIGMENT_GROUP = "Skin Pigment"
-S1_ATTR = "ewrinkles_fine_s1"
-S2_ATTR = "ewrinkles_fine_s2"
-VERSION = 3  # 2: the Baked Shrinkage and Use Baked inputs; 3: M(s) scales each bump's distance
+SHRINKAGE_ATTR = "ewrinkles_fine_shrinkage"  # corner 2-D vector, written by the Fine Wrinkles modifier
+# 2: the Baked Shrinkage and Use Baked inputs; 3: M(s) scales each bump's distance; 4: the
+# shrinkage from the modifier's corner attribute, the baked inputs gone
+VERSION = 4
 # Absorption of melanin and hemoglobin per RGB channel: the paper determined its values
 # empirically and does not print them.  Ours follow the shape of the two absorption spectra
 # over the visible band: melanin absorbs more toward blue (skin turns brown), hemoglobin
@@ -73,16 +68,30 @@ def _socket(ng, name, in_out, kind, default=None, lo=None, hi=None, description=
     return s
 
 
-def _group(name, build):
+def _group(name, interface, build):
+    """The group ``name`` at ``VERSION``: made, or brought up to date in place.  Its sockets
+    are kept where ``interface`` still has them (their links in every material stay), the
+    others removed, the missing added; then its nodes are built again."""
     ng = bpy.data.node_groups.get(name)
     if ng is not None:
         _check(ng)
         if ng.get("ewrinkles_version") == VERSION:
             return ng
         ng.nodes.clear()
-        ng.interface.clear()
     else:
         ng = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    wanted = interface()
+    have = {(it.name, it.in_out): it for it in ng.interface.items_tree if it.item_type == "SOCKET"}
+    for key, item in have.items():
+        if key not in wanted or item.socket_type != wanted[key][0]:
+            ng.interface.remove(item)
+    for (sname, in_out), (kind, default, lo, hi, description, hide) in wanted.items():
+        item = next((it for it in ng.interface.items_tree
+                     if it.item_type == "SOCKET" and it.name == sname and it.in_out == in_out), None)
+        if item is None:
+            _socket(ng, sname, in_out, kind, default, lo, hi, description, hide)
+        else:
+            item.description = description
     build(ng)
     ng["ewrinkles_version"] = VERSION
     return ng
@@ -99,40 +108,35 @@ def _modulation(b, s, r):
                   b.math("MULTIPLY", fade, b.math("SUBTRACT", 1.0, shrinks)))
 
 
+def _fine_interface():
+    return {
+        ("Height 1", "INPUT"): ("NodeSocketFloat", 1.0, 0.0, 1.0,
+                                "The first carved height image (1: no furrow)", False),
+        ("Height 2", "INPUT"): ("NodeSocketFloat", 1.0, 0.0, 1.0,
+                                "The second carved height image, of the second direction field", False),
+        ("Rest Height", "INPUT"): ("NodeSocketFloat", 0.5, 0.0, 1.0,
+                                   "Height of the fine wrinkles on the undeformed skin relative to their "
+                                   "full height (Bando 2002 eq. 5's r)", False),
+        ("Strength", "INPUT"): ("NodeSocketFloat", 1.0, 0.0, 10.0, "Strength of the bump", False),
+        ("Distance", "INPUT"): ("NodeSocketFloat", 0.0004, 0.0, 0.01,
+                                "Depth of a full furrow, in scene units", False),
+        ("Normal", "INPUT"): ("NodeSocketVector", None, None, None,
+                              "The normal to bump (the material's own, or the wrinkle maps')", True),
+        ("Normal", "OUTPUT"): ("NodeSocketVector", None, None, None, "The bumped normal", False),
+    }
+
+
 def _build_fine(ng):
-    _socket(ng, "Height 1", "INPUT", "NodeSocketFloat", 1.0, 0.0, 1.0,
-            "The first carved height image (1: no furrow)")
-    _socket(ng, "Height 2", "INPUT", "NodeSocketFloat", 1.0, 0.0, 1.0,
-            "The second carved height image, of the second direction field")
-    _socket(ng, "Rest Height", "INPUT", "NodeSocketFloat", 0.5, 0.0, 1.0,
-            "Height of the fine wrinkles on the undeformed skin relative to their full height "
-            "(Bando 2002 eq. 5's r)")
-    _socket(ng, "Strength", "INPUT", "NodeSocketFloat", 1.0, 0.0, 10.0, "Strength of the bump")
-    _socket(ng, "Distance", "INPUT", "NodeSocketFloat", 0.0004, 0.0, 0.01,
-            "Depth of a full furrow, in scene units")
-    _socket(ng, "Normal", "INPUT", "NodeSocketVector", None, None, None,
-            "The normal to bump (the material's own, or the wrinkle maps')", hide_value=True)
-    _socket(ng, "Baked Shrinkage", "INPUT", "NodeSocketColor", (0.0, 0.0, 0.0, 1.0),
-            description="The shrinkage across each field baked for a farm (red: the first, green: "
-            "the second), read when Use Baked is 1")
-    _socket(ng, "Use Baked", "INPUT", "NodeSocketFloat", 0.0, 0.0, 1.0,
-            "1: read the shrinkage from Baked Shrinkage (a farm bake), 0: from the mesh's "
-            "attributes, which the add-on writes every frame")
-    _socket(ng, "Normal", "OUTPUT", "NodeSocketVector", description="The bumped normal")
     b = Builder(ng)
     gin = b.node("NodeGroupInput")
     b.x = 250
     r = gin.outputs["Rest Height"]
-    baked = b.node("ShaderNodeSeparateColor")
-    b.link(gin.outputs["Baked Shrinkage"], baked.inputs["Color"])
     normal = gin.outputs["Normal"]
-    pairs = ((gin.outputs["Height 1"], S1_ATTR, 0), (gin.outputs["Height 2"], S2_ATTR, 1))
-    for k, (height, attr, channel) in enumerate(pairs):
-        node = b.node("ShaderNodeAttribute", attribute_type="GEOMETRY", attribute_name=attr)
-        node.name = node.label = f"Shrinkage {k + 1}"
-        live = node.outputs["Fac"]  # s = live + (baked - live) * use
-        s_k = b.math("MULTIPLY_ADD", b.math("SUBTRACT", baked.outputs[channel], live),
-                     gin.outputs["Use Baked"], live)
+    node = b.node("ShaderNodeAttribute", attribute_type="GEOMETRY", attribute_name=SHRINKAGE_ATTR)
+    node.name = node.label = "Shrinkage"
+    shrinkage = b.separate(node.outputs["Vector"])  # x: across field 1, y: across field 2
+    for k, height in enumerate((gin.outputs["Height 1"], gin.outputs["Height 2"])):
+        s_k = shrinkage[k]
         bump = b.node("ShaderNodeBump")  # (H - 1) M(s): the height H - 1, the distance M(s)
         bump.name = bump.label = f"Bump {k + 1}"
         b.link(b.math("SUBTRACT", height, 1.0), bump.inputs["Height"])
@@ -145,18 +149,26 @@ def _build_fine(ng):
     b.link(normal, gout.inputs["Normal"])
 
 
+def _pigment_interface():
+    return {
+        ("Base Color", "INPUT"): ("NodeSocketColor", BASE_SKIN, None, None,
+                                  "Skin colour without pigment (Bando 2002 eq. 6's b)", False),
+        ("Melanin", "INPUT"): ("NodeSocketFloat", 0.2, 0.0, 2.0,
+                               "Amount of melanin m: paint it, or animate it (tanning, freckles)", False),
+        ("Hemoglobin", "INPUT"): ("NodeSocketFloat", 0.2, 0.0, 2.0,
+                                  "Amount of hemoglobin h: paint it, or animate it (blushing, pallor)",
+                                  False),
+        ("Melanin Absorption", "INPUT"): ("NodeSocketColor", MELANIN_ABSORPTION, None, None,
+                                          "Light absorbed by one unit of melanin per channel (eq. 6's a_m)",
+                                          False),
+        ("Hemoglobin Absorption", "INPUT"): ("NodeSocketColor", HEMOGLOBIN_ABSORPTION, None, None,
+                                             "Light absorbed by one unit of hemoglobin per channel "
+                                             "(eq. 6's a_h)", False),
+        ("Color", "OUTPUT"): ("NodeSocketColor", None, None, None, "The skin colour c", False),
+    }
+
+
 def _build_pigment(ng):
-    _socket(ng, "Base Color", "INPUT", "NodeSocketColor", BASE_SKIN, description="Skin colour "
-            "without pigment (Bando 2002 eq. 6's b)")
-    _socket(ng, "Melanin", "INPUT", "NodeSocketFloat", 0.2, 0.0, 2.0,
-            "Amount of melanin m: paint it, or animate it (tanning, freckles)")
-    _socket(ng, "Hemoglobin", "INPUT", "NodeSocketFloat", 0.2, 0.0, 2.0,
-            "Amount of hemoglobin h: paint it, or animate it (blushing, pallor)")
-    _socket(ng, "Melanin Absorption", "INPUT", "NodeSocketColor", MELANIN_ABSORPTION,
-            description="Light absorbed by one unit of melanin per channel (eq. 6's a_m)")
-    _socket(ng, "Hemoglobin Absorption", "INPUT", "NodeSocketColor", HEMOGLOBIN_ABSORPTION,
-            description="Light absorbed by one unit of hemoglobin per channel (eq. 6's a_h)")
-    _socket(ng, "Color", "OUTPUT", "NodeSocketColor", description="The skin colour c")
     b = Builder(ng)
     gin = b.node("NodeGroupInput")
     b.x = 250
@@ -170,12 +182,12 @@ def _build_pigment(ng):
 
 def ensure_fine_group():
     """The shared ``Fine Wrinkles`` group, built or rebuilt when another version made it."""
-    return _group(FINE_GROUP, _build_fine)
+    return _group(FINE_GROUP, _fine_interface, _build_fine)
 
 
 def ensure_pigment_group():
     """The shared ``Skin Pigment`` group (§8, eq. 6)."""
-    return _group(PIGMENT_GROUP, _build_pigment)
+    return _group(PIGMENT_GROUP, _pigment_interface, _build_pigment)
 
 
 def tag_layer(node):
