@@ -49,6 +49,14 @@ The mapped mesh (``--mesh``):
     shrinkage is measured on, the largest offset after the curves blocks (and after the
     none blocks: 0), and the time of one rebuild of the static plan (what an edit of a
     curve costs).
+``curves_floor_ratio``
+    The curves' stage over its floor, from two more configurations in the same interleaved
+    blocks: *base*, Blender alone (the Wrinkles modifier hidden, the frame handler out), and
+    *floor*, the Wrinkles modifier with ``frame_update.py``'s bare handler (read the skin, write
+    the positions, no maths) in place of the add-on's.  Per repeat, (curves - base) /
+    ((floor - base) + the curves' arithmetic alone: ``frame_breakdown_ms.floor.total`` and the
+    normals under the heights, ``curve_combine``); the median over the repeats.  Goal: at most
+    1.3.
 ``fine_attributes_frame_ms``
     What the fine wrinkles (§5, §7; carved at 512 x 512) add to a frame of the same face on
     top of the curves: the frames with the curves and the fine wrinkles (their *Fine
@@ -472,20 +480,32 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
     log(f"curves: {bench.n} verts ({bench.source}), {n_curves} curves, footprint {len(plan.footprint)} "
         f"verts, {len(plan.entry_slot)} entries, {len(plan.shrink.ends[0])} edges; plan rebuild "
         f"{fu.fmt(detail['rebuild_ms'], '.1f')} ms; set up in {time.perf_counter() - t:.1f} s")
-    configs = ("none", "curves", "all")  # all: the curves and both fine shrinkage attributes
+    # all: the curves and the fine wrinkles; base: Blender alone (no stage, no handler); floor:
+    # the stage with frame_update's bare handler (read the skin, write the positions)
+    configs = ("none", "curves", "all", "base", "floor")
+    bench.stage_mod = stage_mod
     heights = {c: [] for c in configs}
     times = {c: [] for c in configs}
     for rep in range(repeats):
         for config in (configs if rep % 2 == 0 else configs[::-1]):
             set_fine(config == "all")
-            set_curves(config != "none")
+            set_curves(config not in ("none", "base", "floor"))
+            bench.handler(config not in ("base", "floor"))
+            bench.floor_handler(config == "floor")
+            stage_mod.show_viewport = config != "base"
             bench.frame_loop(bench.warm)
             times[config].append(bench.frame_loop(bench.frames))
+            if config in ("base", "floor"):
+                continue
             # untimed: the offsets the stage computed on a few more frames
             bench.frame_loop(bench.frames[:3], lambda _ev, c=config: heights[c].append(
                 float(np.abs(fu.pipeline._cache[face.session_uid].out).max())))
         log(f"curves: repeat {rep + 1}/{repeats}: none {fu.ms(times['none'][-1]):.2f} ms, "
-            f"curves {fu.ms(times['curves'][-1]):.2f} ms, with fine {fu.ms(times['all'][-1]):.2f} ms")
+            f"curves {fu.ms(times['curves'][-1]):.2f} ms, with fine {fu.ms(times['all'][-1]):.2f} ms, "
+            f"Blender alone {fu.ms(times['base'][-1]):.2f} ms, bare floor {fu.ms(times['floor'][-1]):.2f} ms")
+    bench.handler(True)
+    bench.floor_handler(False)
+    stage_mod.show_viewport = True
     set_curves(True)
     set_fine(False)  # the breakdown is the curves' alone: the fine wrinkles cost Python nothing
 
@@ -495,6 +515,12 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
     breakdown = frame_breakdown(bench, face, configure, repeats)
     med = {c: [fu.ms(block) for block in blocks] for c, blocks in times.items()}
     cost = [a - b for a, b in zip(med["curves"], med["none"])]
+    # the curves' stage over its floor: (curves - base) / ((floor - base) + their arithmetic:
+    # the floor's edges and heights, and the normals the heights go along, as the muscles' and
+    # the patterns' floors count them)
+    arithmetic = breakdown["floor"]["total"] + breakdown["curve_combine"]
+    floor_ratio = [fu.ratio(c - b, f - b + arithmetic)
+                   for c, f, b in zip(med["curves"], med["floor"], med["base"])]
     fine_cost = [a - b for a, b in zip(med["all"], med["curves"])]
     both_cost = [a - b for a, b in zip(med["all"], med["none"])]
     detail.update({
@@ -513,7 +539,12 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
         f"{detail['max_height_mm']:.3f} mm (none: {detail['max_height_none_mm']:.3f} mm)")
     if not detail["max_height_mm"] > 0.0 or detail["max_height_none_mm"] != 0.0:
         raise RuntimeError("the curves blocks did not raise wrinkles, or the none blocks did")
+    detail["per_repeat"]["floor_ratio"] = floor_ratio
+    detail["per_repeat"].update(blender_alone_ms=med["base"], bare_floor_ms=med["floor"])
+    log(f"curves_floor_ratio {fu.fmt(fu.median_or_none(floor_ratio))} (per repeat "
+        f"{', '.join(fu.fmt(x) for x in floor_ratio)}; arithmetic floor {arithmetic:.3f} ms)")
     out = {"curves_frame_ms": fu.clean(result), "curves": fu.clean(detail),
+           "curves_floor_ratio": fu.clean(fu.median_or_none(floor_ratio)),
            "fine_attributes_frame_ms": fu.clean(fu.median_or_none(fine_cost)),
            "curves_and_fine_frame_ms": fu.clean(fu.median_or_none(both_cost)),
            "frame_breakdown_ms": fu.clean(breakdown), "bpy": bpy.app.version_string}

@@ -5,7 +5,8 @@ a 50k-vertex face.
 Run:  .venv45/bin/python benchmarks/patterns.py   (or .venv52)
       options: --verts 50000  --layers 10  --tears 2  --frames 40  --warm 5  --repeats 6
 
-Prints one JSON line, ``{"patterns_frame_ms": ..., "frame_empty_rebuild_ms": ..., "patterns": {...}}``:
+Prints one JSON line, ``{"patterns_frame_ms": ..., "frame_empty_rebuild_ms": ...,
+"layers_floor_ratio": ..., "patterns": {...}}``:
 
 ``patterns_frame_ms``
     What ``--layers`` (10) pattern layers and ``--tears`` (2) shedding tears add to a frame
@@ -27,6 +28,12 @@ Prints one JSON line, ``{"patterns_frame_ms": ..., "frame_empty_rebuild_ms": ...
     add-on's frame handler in, the viewport's in-place path) over ``--frames`` new frames
     after ``--warm`` warm-up frames.  ``patterns_frame_ms`` is the median over the repeats of
     (median frame of the all block - median frame of the none block next to it).
+``layers_floor_ratio``
+    The layers' stage over its floor, from two more configurations in the same blocks:
+    *base*, Blender alone (the Wrinkles modifier hidden, the frame handler out), and *floor*,
+    the Wrinkles modifier with ``frame_update.py``'s bare handler (read the skin, write the
+    positions, no maths).  Per repeat, (layers - base) / ((floor - base) + ``heights_ms`` +
+    ``combine_ms``, the layers' arithmetic alone); the median.  Goal: at most 1.3.
 ``frame_empty_rebuild_ms``
     What animating the layers' frames costs: a fourth configuration in the same interleaved
     blocks, *moving*, the layers shown with every frame Empty keyed to turn about its normal
@@ -218,20 +225,28 @@ def main(argv=None):
             ob.animation_data.action = action if on else None
 
     animate(False)
-    configs = ("none", "layers", "all", "moving")  # moving: the layers, their Empties animated
+    # moving: the layers, their Empties animated; base: Blender alone (no stage, no handler);
+    # floor: the stage with frame_update's bare handler (read the skin, write the positions)
+    configs = ("none", "layers", "all", "moving", "base", "floor")
+    bench.stage_mod = fu.stage.find_modifier(face)
     times = {c: [] for c in configs}
     peak = {c: [] for c in configs}
     rebuilt = []
     for rep in range(args.repeats):
         for config in (configs if rep % 2 == 0 else configs[::-1]):
-            show(config != "none")
+            show(config in ("layers", "all", "moving"))
             show_tears(config == "all")
             animate(config == "moving")
+            bench.handler(config not in ("base", "floor"))
+            bench.floor_handler(config == "floor")
+            bench.stage_mod.show_viewport = config != "base"
             bench.frame_loop(bench.warm)
             serial = fu.pipeline._cache[face.session_uid].statics["patterns"][2]
             times[config].append(bench.frame_loop(bench.frames))
             if config == "moving":
                 rebuilt.append(fu.pipeline._cache[face.session_uid].statics["patterns"][2] != serial)
+            if config in ("base", "floor"):
+                continue
             bench.frame_loop(bench.frames[:3], lambda _ev, c=config: peak[c].append(
                 float(np.abs(fu.pipeline._cache[face.session_uid].out).max())))
         log(f"repeat {rep + 1}/{args.repeats}: "
@@ -240,7 +255,14 @@ def main(argv=None):
     cost = [a - b for a, b in zip(med["all"], med["none"])]
     detail["layers_ms"] = fu.clean(fu.median_or_none([a - b for a, b in zip(med["layers"], med["none"])]))
     detail["tears_ms"] = fu.clean(fu.median_or_none([a - b for a, b in zip(med["all"], med["layers"])]))
+    bench.handler(True)
+    bench.floor_handler(False)
+    bench.stage_mod.show_viewport = True
     frame_empty = fu.median_or_none([a - b for a, b in zip(med["moving"], med["layers"])])
+    arithmetic = detail["heights_ms"] + detail["combine_ms"]
+    floor_ratio = [fu.ratio(m - b, f - b + arithmetic)
+                   for m, f, b in zip(med["layers"], med["floor"], med["base"])]
+    detail["floor_ratio_per_repeat"] = floor_ratio
     detail["moving_rebuilt_blocks"] = int(sum(rebuilt))
     detail.update({"frame_ms": fu.ms([x for b in times["all"] for x in b]),
                    "base_frame_ms": fu.ms([x for b in times["none"] for x in b]),
@@ -254,9 +276,12 @@ def main(argv=None):
     result = fu.median_or_none(cost)
     log(f"patterns_frame_ms {result:.3f} (layers {detail['layers_ms']}, tears {detail['tears_ms']}); heights "
         f"alone {detail['heights_ms']:.3f} ms; footprint {detail['footprint_verts']} verts")
+    log(f"layers_floor_ratio {fu.fmt(fu.median_or_none(floor_ratio))} (per repeat "
+        f"{', '.join(fu.fmt(x) for x in floor_ratio)}; arithmetic floor {arithmetic:.3f} ms)")
     log(f"frame_empty_rebuild_ms {fu.fmt(frame_empty, '.3f')} (blocks that rebuilt the layers: "
         f"{detail['moving_rebuilt_blocks']} of {len(rebuilt)})")
     print(json.dumps({"patterns_frame_ms": fu.clean(result), "frame_empty_rebuild_ms": fu.clean(frame_empty),
+                      "layers_floor_ratio": fu.clean(fu.median_or_none(floor_ratio)),
                       "patterns": fu.clean(detail)}), flush=True)
     bpy.ops.wm.read_factory_settings(use_empty=True)  # bpy 4.5 hangs at exit otherwise
 
