@@ -420,3 +420,28 @@ def test_removing_the_uv_map_pauses_only_the_wrinkle_maps():
     assert status.get(face, pipeline.CHANNEL) == ""
     message = status.get(face, wrinklemaps.CHANNEL)
     assert "wrinkle maps" in message.lower() and "no UV map" in message  # the maps' own report
+
+
+def test_a_muscle_linked_into_the_scene_again_wrinkles_again_on_the_next_frame():
+    """Viewport frames keep the muscles' static data while nothing that it reads changed; a
+    muscle unlinked from the scene leaves it, and one linked back must come back into it
+    (not only on a full check)."""
+    scene = bpy.context.scene
+    face, muscle = scenes.wrinkled_face(contraction=1.0)
+    scene.frame_set(1)
+    scene.frame_set(2)
+
+    def shown():  # what the face shows: its positions over its skin
+        return np.abs(scenes.evaluated_positions(face) - _skin(face)).max()
+
+    assert shown() > 1e-4
+    homes = list(muscle.users_collection)
+    for coll in homes:
+        coll.objects.unlink(muscle)
+    scene.frame_set(3)
+    scene.frame_set(4)
+    assert shown() == 0.0
+    for coll in homes:
+        coll.objects.link(muscle)
+    scene.frame_set(5)
+    assert shown() > 1e-4, "the muscle linked again is left out"

@@ -12,15 +12,16 @@ from ..ui import muscles as muscles_ui
 
 class _Static:
     __slots__ = ("plan", "footprint", "refs", "n_refs", "names", "uids", "params", "not_finite",
-                 "face_params")
+                 "face_params", "left_out")
 
-    def __init__(self, plan, refs, n_refs, muscles, marks, face_params):
+    def __init__(self, plan, refs, n_refs, muscles, marks, face_params, left_out=frozenset()):
         self.plan, self.footprint, self.refs, self.n_refs = plan, plan.footprint, refs, n_refs
         self.names = [m.name for m in muscles]
         self.not_finite = [objects.not_finite(m) for m in muscles]
         self.uids = frozenset(m.session_uid for m in muscles + marks)
         self.params = {m.session_uid: objects.parameters(m) for m in muscles}
         self.face_params = face_params  # the face's Irregularity and Seed
+        self.left_out = left_out  # the face's muscle objects that were in no scene at the build
 
 
 class _Contraction:
@@ -67,18 +68,22 @@ class MuscleSource(WrinkleSource):
         keep = landmarks.keep_out(face, mesh.rest)
         plan = system.build_plan(mesh.rest, mesh.edges, mesh.tris, core, keep_out=keep)
         marks = landmarks.landmark_objects(face)
+        listed = {ref.object.session_uid for ref in face.ewrinkles_face.muscles if ref.object is not None}
         return _Static(plan, refs, len(face.ewrinkles_face.muscles), muscles, marks,
-                       objects.face_parameters(face))
+                       objects.face_parameters(face), frozenset(listed - {m.session_uid for m in muscles}))
 
     def unchanged(self, face, static, changes, in_scene):
         # Muscles are placed in the face's space: a moved face, or a muscle or landmark
         # moved or edited (Blender flags its transform or geometry), needs the signatures
-        # checked, and so does a muscle deleted, unlinked, added or removed from the list.
+        # checked, and so does a muscle deleted, unlinked (or linked again), added or removed
+        # from the list.
         # The face's own geometry updates every frame.  A muscle updated otherwise had a
         # property set (an animated contraction does that on every frame): then only its
         # parameters are compared, about 1 us each against 9 us for a whole signature.
         moved = changes.get(face.session_uid, (False, False))[0]
         if moved or not static.uids <= in_scene or len(face.ewrinkles_face.muscles) != static.n_refs:
+            return False
+        if static.left_out and (static.left_out & in_scene):  # a muscle linked into the scene again
             return False
         if objects.face_parameters(face) != static.face_params:  # Irregularity or Seed changed
             return False
