@@ -38,7 +38,6 @@ VERSION = 1
 SHRINKAGE_ATTR = "ewrinkles_fine_shrinkage"  # corner 2-D vector: (field 1, field 2)
 SKIN_ATTR = ".ewrinkles_fine_skin"  # inside the tree only: the skin it measures
 TINY = 1e-30  # as core.bando.field: a collapsed edge gives s -> 1, never NaN
-_TOPOLOGY = stage.TOPOLOGY_MODIFIERS
 
 
 def far_attr(f, j):
@@ -144,7 +143,7 @@ def _home(face):
     wrinkles = stage.find_modifier(face)
     if wrinkles is not None:
         return mods.index(wrinkles)
-    return next((i for i, m in enumerate(mods) if m.type in _TOPOLOGY), len(mods))
+    return next((i for i, m in enumerate(mods) if m.type in stage.TOPOLOGY_MODIFIERS), len(mods))
 
 
 def ensure_modifier(face):
@@ -152,10 +151,8 @@ def ensure_modifier(face):
     mod = find_modifier(face)
     if mod is None:
         mod = face.modifiers.new(MODIFIER_NAME, "NODES")
-        mod.node_group = ensure_group()
         mod.show_in_editmode = False
-    else:
-        mod.node_group = ensure_group()
+    mod.node_group = ensure_group()
     mods = list(face.modifiers)
     here = mods.index(mod)
     home = _home(face)
@@ -185,7 +182,8 @@ def order_problem(face):
             return f'Move the "{mod.name}" modifier above "{wrinkles.name}"'
         between = [m for m in after[:after.index(wrinkles)] if m.show_viewport or m.show_render]
     else:
-        between = [m for m in after if (m.show_viewport or m.show_render) and m.type not in _TOPOLOGY]
+        between = [m for m in after
+                   if (m.show_viewport or m.show_render) and m.type not in stage.TOPOLOGY_MODIFIERS]
     if between:
         place = f'directly above "{wrinkles.name}"' if wrinkles is not None else "below it"
         return (f'The modifier "{between[0].name}" changes the skin after "{mod.name}": move '
