@@ -167,8 +167,9 @@ def _write_in_place(state, ev, skin, offset):
     Safe only when ``ev`` has exactly the base vertices and was re-evaluated
     since our last write, which we know when it no longer shows the positions
     that write left (``state.shown``): then Blender rebuilds its draw data from
-    what we leave in it.  If it was not re-evaluated and already shows these
-    positions, there is nothing to do.  Without a previous write we cannot tell.
+    what we leave in it (after ``ev.update()``, which the caller calls once every
+    value is in).  If it was not re-evaluated and already shows these positions,
+    there is nothing to do.  Without a previous write we cannot tell.
     """
     if len(ev.vertices) != len(skin) or state.shown is None:
         return False
@@ -181,9 +182,15 @@ def _write_in_place(state, ev, skin, offset):
     pos.data.foreach_set("vector", new.reshape(-1))
     if meshio.attribute(ev, stage.OFFSET_ATTR, "FLOAT_VECTOR") is not None:  # keep it consistent
         meshio.write_vectors(ev, stage.OFFSET_ATTR, offset)
-    ev.update()  # drops the cached normals; measured not to trigger a re-evaluation
     state.shown = new
     return True
+
+
+def _write_pulled(ob, readers, statics, ev, pulled, failed):
+    """Whether every source whose tree measures the skin plus the pull (``readers``) wrote
+    this in-place frame's values from the pulled skin into ``ev`` (``write_pulled``)."""
+    return all(_run(ob, s, failed, s.write_pulled, ob, statics[s.name], ev, pulled) is True
+               for s in readers)
 
 
 def _stage_problem(ob, ev, mod):
@@ -195,11 +202,12 @@ def _stage_problem(ob, ev, mod):
     return stage.order_problem(ob, mod, len(ev.vertices))
 
 
-def _write_shading(ob, active, statics, contributions, failed, ev=None):
+def _write_shading(ob, active, statics, contributions, failed, ev=None, update=False):
     """The sources' shading values; their point attributes into the evaluated mesh ``ev``
     when given (viewport frames whose geometry was written in place: no re-evaluation, which
     a write into the original mesh's attribute triggers, measured 3 ms at 50k vertices), else
-    into the original mesh (renders, exports, edits).  Returns whether any went into ``ev``."""
+    into the original mesh (renders, exports, edits).  ``ev.update()`` follows when anything
+    went into ``ev`` or ``update`` says other values did.  Returns whether any went in."""
     in_place = False
 
     def write(source, part):
@@ -217,8 +225,8 @@ def _write_shading(ob, active, statics, contributions, failed, ev=None):
 
     for source, part in zip(active, contributions):
         _run(ob, source, failed, write, source, part)
-    if in_place:
-        ev.update()  # the viewport redraws from it, as after the in-place geometry write
+    if in_place or update:
+        ev.update()  # drops the cached normals and draw data; measured not to re-evaluate
     return in_place
 
 
@@ -332,13 +340,14 @@ def update_face(ob, depsgraph, only_if_changed=False, in_place=False, in_scene=N
         plan = _plan(state, [s for s, _c in geometric], statics)
         parts = [c for _s, c in geometric]
         out = combine.combine(plan, skin, parts, out=state.out)
-        # a tree above the stage measures the skin plus the pull: it sees a pull only in the
-        # original mesh, so a frame with one (or the first after one) is written back
-        reads_pull = any(s.reads_pull for s in active)
-        pull_frame = reads_pull and (pulled is not skin or state.pull_written)
-        if (in_place and not pull_frame and stage.output_is_final(ob, mod)
-                and _write_in_place(state, ev, skin, out)):
-            _write_shading(ob, active, statics, contributions, failed, ev)
+        # a tree above the stage measures the skin plus the pull, which it finds only in the
+        # original mesh: on a frame with one (or the first after one) written in place, the
+        # sources write the tree's values from the pulled skin into the evaluated mesh
+        readers = [s for s in active if s.reads_pull]
+        pull_frame = bool(readers) and (pulled is not skin or state.pull_written)
+        if (in_place and stage.output_is_final(ob, mod) and _write_in_place(state, ev, skin, out)
+                and (not pull_frame or _write_pulled(ob, readers, statics, ev, pulled, failed))):
+            _write_shading(ob, active, statics, contributions, failed, ev, update=True)
         else:
             _write_shading(ob, active, statics, contributions, failed)
             meshio.write_vectors(me, stage.OFFSET_ATTR, out)

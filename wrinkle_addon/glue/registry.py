@@ -39,7 +39,10 @@ class WrinkleSource:
     * ``reads_pull``: Blender computes the source's values itself, in a Geometry Nodes tree
       above the Wrinkles modifier that measures the skin plus the tangential offsets of the
       sources before it (``glue.stage.PULL_ATTR``).  The stage then writes that pull with
-      the offsets, and writes back rather than in place on the frames that have one.
+      the offsets.  On a viewport frame written in place the tree has measured the skin
+      without that frame's pull (it sees one only in the original mesh): the stage then asks
+      the source to :meth:`write_pulled` its values into the evaluated mesh, and writes the
+      frame back into the original mesh when it cannot.
     * ``per_frame``: False when the source computes nothing per frame (Blender does, in the
       face's modifiers): on a viewport frame that leaves its static data as it is
       (:meth:`unchanged`), the stage does not visit a face on which only such sources are
@@ -86,6 +89,13 @@ class WrinkleSource:
         """This frame's :class:`core.combine.Contribution` for the skin ``skin`` (N, 3) and
         this frame's ``inputs`` (what :meth:`inputs` returned)."""
         return combine.Contribution()
+
+    def write_pulled(self, face, static, ev, pulled):
+        """For a ``reads_pull`` source, on a viewport frame written in place: write into the
+        evaluated mesh ``ev`` the values its tree computes from the pulled skin ``pulled``
+        (N, 3), exactly as the tree would.  Returns whether it wrote them; when False the
+        stage writes the frame back into the original mesh, where the tree sees the pull."""
+        return False
 
     def write_shading(self, face, static, name, values):
         """Write one of the contribution's ``shading`` values (its ``attributes`` are

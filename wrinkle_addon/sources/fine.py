@@ -5,9 +5,13 @@ itself measures the skin's shrinkage across each of the two direction fields eve
 (eq. 4), in the face's *Fine Wrinkles* Geometry Nodes modifier (``glue.bando.fine_tree``),
 which the group turns into ``M(s)`` (eq. 5).  The source keeps the modifier's stored plan in
 step with the mesh (an edit of the mesh or its UVs plans it again) and reports what stops
-it; it has nothing to compute per frame."""
+it; it has nothing to compute per frame, except on a viewport frame that the muscles pull
+and the stage writes in place: the tree has not seen that pull, and the source writes the
+shrinkage of the pulled skin into the evaluated mesh (NumPy, the tree's reference)."""
 
-from ..core.bando import mapped
+import numpy as np
+
+from ..core.bando import fine, mapped
 from ..glue import meshio, surface
 from ..glue.bando import fine as fine_glue
 from ..glue.bando import fine_tree
@@ -17,10 +21,11 @@ from ..ui import bando as bando_ui
 
 
 class _Static:
-    __slots__ = ("plan", "problem")
+    __slots__ = ("plan", "problem", "corner_verts", "values")
 
-    def __init__(self, plan=None, problem=""):
-        self.plan, self.problem = plan, problem
+    def __init__(self, plan=None, problem="", corner_verts=None):
+        self.plan, self.problem, self.corner_verts = plan, problem, corner_verts
+        self.values = None if plan is None else np.empty((2, plan.n_verts), np.float32)
 
 
 class FineSource(WrinkleSource):
@@ -55,11 +60,18 @@ class FineSource(WrinkleSource):
             fields = fine_glue.read_fields(face, s, m)
             if fields is None:
                 return _Static(problem="The fine wrinkles' direction fields are missing: carve them again")
-            return _Static(fine_glue.store_plan(face, s, m, fields))  # written if it differs
+            plan = fine_glue.store_plan(face, s, m, fields)  # written if it differs
+            return _Static(plan, corner_verts=meshio.read_polygons(face.data)[0])
         except surface.SurfaceError as exc:
             return _Static(problem=str(exc))
         except ValueError as exc:  # the core's checks (non-finite fields, say)
             return _Static(problem=f"Fine wrinkles: {exc}. Carve them again")
+
+    def write_pulled(self, face, static, ev, pulled):
+        if static.plan is None:
+            return False
+        fine.shrinkages(static.plan, pulled, out=static.values)
+        return fine_tree.write_evaluated(ev, static.corner_verts, static.values)
 
     def problems(self, face, static):
         return static.problem or fine_tree.order_problem(face)

@@ -241,6 +241,20 @@ def shrinkage(face, depsgraph=None):
     return out[:, :len(face.data.vertices)]
 
 
+def write_evaluated(ev, corner_verts, values):
+    """Write both fields' shrinkage ``values`` (2, N) float32 at the face's N vertices into
+    the evaluated mesh ``ev`` (its ``SHRINKAGE_ATTR``, as the tree stores it: each corner its
+    vertex's), where ``corner_verts`` are the face's corner vertices.  False when ``ev``
+    holds no such attribute on the same corners (the tree did not run, or the topology
+    changed), and nothing is written."""
+    att = ev.attributes.get(SHRINKAGE_ATTR)
+    if (att is None or att.domain != "CORNER" or att.data_type != "FLOAT2"
+            or len(att.data) != len(corner_verts) or len(ev.vertices) != values.shape[1]):
+        return False
+    att.data.foreach_set("vector", np.ascontiguousarray(values.T[corner_verts]).reshape(-1))
+    return True
+
+
 def remove(face):
     """The modifier and every attribute it reads, gone (the group stays while others use it)."""
     mod = find_modifier(face)
