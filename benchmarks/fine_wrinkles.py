@@ -417,11 +417,7 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
     built = bench.build()
     face = bench.ob
     bench.scene.frame_set(1)
-    vl = bpy.context.view_layer
-    for o in vl.objects:
-        o.select_set(False)
-    face.select_set(True)
-    vl.objects.active = face
+    bench.select_face()
     live = place_curves(bench, n_curves)  # before Enable Wrinkles: no plan is rebuilt per property
     assert bpy.ops.wrinkle.enable() == {"FINISHED"}
     fine_image = add_fine_attributes(bench)
@@ -564,11 +560,7 @@ def fine_gn(target, frames, warm, repeats):
     bench = fu.Bench(target, warm, frames, "light", repeats)
     bench.build()
     face = bench.ob
-    vl = bpy.context.view_layer
-    for o in vl.objects:
-        o.select_set(False)
-    face.select_set(True)
-    vl.objects.active = face
+    bench.select_face()
     image = add_fine_attributes(bench)  # no Enable Wrinkles: the fine wrinkles alone
     fs = face.ewrinkles_face.fine_wrinkles
     fine_mod = fine_tree.find_modifier(face)

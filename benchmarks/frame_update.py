@@ -498,17 +498,21 @@ class Bench:
             f"texture sampled (textured / constant not constant): {varies}")
         return r
 
+    def select_face(self):
+        """The face selected and active, alone: the add-on's operators work on it."""
+        vl = bpy.context.view_layer
+        for o in vl.objects:
+            o.select_set(False)
+        self.ob.select_set(True)
+        vl.objects.active = self.ob
+
     # -- the wrinkle stage ---------------------------------------------------
     def add_wrinkles(self):
         t = pc()
         self.set_config("base")
         self.handler(True)
         self.scene.frame_set(1)
-        vl = bpy.context.view_layer
-        for o in vl.objects:
-            o.select_set(False)
-        vl.objects.active = self.ob
-        self.ob.select_set(True)
+        self.select_face()
         res = bpy.ops.wrinkle.enable()
         assert res == {"FINISHED"}, res
         self.stage_mod = stage.find_modifier(self.ob)

@@ -171,11 +171,7 @@ def main(argv=None):
     bench = fu.Bench(args.verts, args.warm, args.frames, "light", args.repeats)
     bench.build()
     face = bench.ob
-    vl = bpy.context.view_layer
-    for o in vl.objects:
-        o.select_set(False)
-    face.select_set(True)
-    vl.objects.active = face
+    bench.select_face()
     assert bpy.ops.wrinkle.enable() == {"FINISHED"}
     for kind, point in list(zip(KINDS, places(bench.landmarks)))[: args.layers]:
         bpy.context.scene.cursor.location = face.matrix_world @ Vector(point.tolist())

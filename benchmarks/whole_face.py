@@ -104,11 +104,8 @@ class Face:
         b.set_config("pulling")
         face = self.face = b.ob
         self.stage_mod = b.stage_mod
+        b.select_face()
         vl = bpy.context.view_layer
-        for o in vl.objects:
-            o.select_set(False)
-        face.select_set(True)
-        vl.objects.active = face
         self.curves = fw.place_curves(b, 20)
         self.fine_image = fw.add_fine_attributes(b)
         from wrinkle_addon.glue.bando import fine_tree
