@@ -236,3 +236,40 @@ def test_blend_keeps_leading_shapes_and_gives_unit_normals():
         out = wm.blend(base, maps, ma, mb, weights, difference=difference)
         assert out.shape == (5, 7, 3) and np.isfinite(out).all()
         np.testing.assert_allclose(np.linalg.norm(out, axis=-1), 1.0, atol=1e-5)
+
+
+def _tension_face(seed):
+    """A grid of 60 x 40 vertices with masks on part of it (NaN on one vertex), posed by a
+    random squash: the plan must give what the reference gives at every zone."""
+    rng = np.random.default_rng(seed)
+    nx, ny = 60, 40
+    x, y = np.meshgrid(np.linspace(0, 0.1, nx), np.linspace(0, 0.07, ny))
+    rest = np.stack([x.ravel(), y.ravel(), np.zeros(nx * ny)], 1).astype(np.float32)
+    idx = np.arange(nx * ny).reshape(ny, nx)
+    edges = np.concatenate([np.stack([idx[:, :-1].ravel(), idx[:, 1:].ravel()], 1),
+                            np.stack([idx[:-1].ravel(), idx[1:].ravel()], 1),
+                            np.stack([idx[:-1, :-1].ravel(), idx[1:, 1:].ravel()], 1)])
+    masks = np.zeros((nx * ny, 8), np.float32)
+    masks[:, 0] = (rest[:, 0] < 0.04) * rng.random(nx * ny)
+    masks[:, 3] = np.clip((rest[:, 1] - 0.03) * 40, 0, 1)
+    masks[:, 5] = rest[:, 0] > 0.07
+    masks[7, 0] = np.nan
+    squash = np.array([1.0 - 0.3 * rng.random(), 1.0 + 0.1 * rng.random(), 1.0], np.float32)
+    skin = rest * squash + rng.normal(0, 2e-4, rest.shape).astype(np.float32)
+    skin[edges[5]] = skin[edges[5, 0]]  # a collapsed edge
+    rest_length = np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1)
+    return edges, rest_length, masks, skin
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_folded_tension_plan_equals_the_reference(seed):
+    edges, rest_length, masks, skin = _tension_face(seed)
+    plan = wm.tension_plan(edges, rest_length, masks)
+    assert len(plan.a) < len(edges)  # the edges no mask reaches are left out
+    for gain in (1.0, 3.0, float("nan")):
+        want = wm.zone_tension(masks, wm.vertex_compression(skin, edges, rest_length), gain)
+        got = wm.plan_tension(plan, skin, gain)
+        assert got.dtype == np.float32 and got.shape == (8,)
+        np.testing.assert_allclose(got, want, rtol=0, atol=2e-6)
+    assert wm.plan_tension(plan, skin)[[0, 3]].min() > 0.01  # the squash compresses both zones
+    assert wm.plan_tension(plan, np.full_like(skin, np.nan)).max() == 0.0  # no number, no wrinkles

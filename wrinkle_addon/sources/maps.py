@@ -3,7 +3,8 @@
 
 The maps themselves are shaded by the *Wrinkle Map Blend* group; what runs per frame is
 the tension-driven mode, whose 8 zone weights are the skin's measured compression in each
-zone (``core.maps.jimenez.zone_tension``).  Its farm bake keys the weights that a farm
+zone (``core.maps.jimenez.zone_tension``, folded onto the edges once per face:
+``core.maps.jimenez.tension_plan``).  Its farm bake keys the weights that a farm
 without the add-on cannot compute."""
 
 from ..core.combine import Contribution
@@ -15,7 +16,8 @@ from ..ui import maps as maps_ui
 
 
 class _Static:
-    """The tension's static data (``material.tension_statics``), or why there is none."""
+    """The tension's plan (``core.maps.jimenez.tension_plan`` of ``material.tension_statics``),
+    or why there is none."""
 
     __slots__ = ("tension", "problem")
 
@@ -36,7 +38,8 @@ class MapSource(WrinkleSource):
 
     def build(self, face, mesh, in_scene):
         try:
-            return _Static(material.tension_statics(face))
+            rest_length, edges, vertex_masks = material.tension_statics(face)
+            return _Static(jimenez.tension_plan(edges, rest_length, vertex_masks))
         except SurfaceError as exc:  # the UV map is gone, say: the maps' own problem
             return _Static(problem=f"Tension-driven wrinkle maps paused: {exc}")
 
@@ -46,11 +49,8 @@ class MapSource(WrinkleSource):
     def contribute(self, face, static, skin, inputs):
         if static.tension is None:
             return Contribution()
-        rest_length, edges, vertex_masks = static.tension
-        compression = jimenez.vertex_compression(skin, edges, rest_length)
         (gain,) = inputs
-        values = jimenez.zone_tension(vertex_masks, compression, gain)
-        return Contribution(shading={"zone_weights": values})
+        return Contribution(shading={"zone_weights": jimenez.plan_tension(static.tension, skin, gain)})
 
     def problems(self, face, static):
         return static.problem
