@@ -317,7 +317,16 @@ def pattern(kind, x, y, t, alpha=0.0, beta=0.0, gamma=0.0, shape="PAPER"):
     y = np.asarray(y, np.float64)
     with np.errstate(all="ignore"):
         h = fn(x, y, float(t), float(alpha), float(beta), float(gamma))
-    return np.nan_to_num(np.asarray(h, np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+    return _finite(np.asarray(h, np.float64))
+
+
+def _finite(a):
+    """``a`` with its non-finite values set to 0: one reduction when all are finite (every
+    frame, normally), a copy only when some are not (a sum that overflows counts as not)."""
+    with np.errstate(all="ignore"):
+        if np.isfinite(a.sum()):
+            return a
+    return np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0)
 
 
 def damping_radius(distance, radius, width):
@@ -466,4 +475,4 @@ def heights(pl, values):
             continue
         h = pattern(lay.kind, lay.x, lay.y, t, alpha, beta, gamma, lay.shape)
         out[idx] += h * lay.weight * (strength * lay.scale)
-    return np.nan_to_num(out, nan=0.0, posinf=0.0, neginf=0.0)
+    return _finite(out)
