@@ -280,7 +280,8 @@ def tension_plan(edges, rest_length, vertex_masks):
     rest = np.asarray(rest_length, np.float64).ravel()
     keep = (weights != 0.0).any(axis=1) & (rest > _EPS_LEN)
     return TensionPlan(np.ascontiguousarray(e[keep, 0]), np.ascontiguousarray(e[keep, 1]),
-                       rest[keep].astype(np.float32), np.ascontiguousarray(weights[keep].T, np.float32), len(m))
+                       rest[keep].astype(np.float32),
+                       np.ascontiguousarray(weights[keep].T, np.float32), len(m))
 
 
 def plan_tension(plan, skin, gain=1.0):
