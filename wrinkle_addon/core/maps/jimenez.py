@@ -251,24 +251,21 @@ class TensionPlan:
     frame of one face: with ``c_v = sum_{e at v} tau_e / deg_v`` and ``T_z = sum_v m_zv``,
     the zone's mean ``sum_v m_zv c_v / T_z`` is ``sum_e tau_e w_ez``, where
     ``w_ez = m_z(a) / (deg_a T_z) + m_z(b) / (deg_b T_z)`` for the edge's ends ``a, b``.
-    Only the edges with a weight (those touching a masked vertex) and a usable rest length
-    are kept: ``a``, ``b`` (E',) their ends, ``rest`` (E',) float32 their rest lengths,
-    ``weights`` (8, E') float32, a row per zone: eight 1-D dot products per frame (a
-    (E',) @ (E', 8) product goes through OpenBLAS's threaded gemv, measured 100 times
-    slower at 75k edges)."""
+    Only the edges with a weight (those touching a masked vertex) are kept: ``edges``
+    (E', 2), ``rest`` (E',) float32 their rest lengths, ``weights`` (8, E') float32, a row
+    per zone: eight 1-D dot products per frame (a (E',) @ (E', 8) product goes through
+    OpenBLAS's threaded gemv, measured 100 times slower at 75k edges)."""
 
-    __slots__ = ("a", "b", "rest", "weights", "n_verts")
+    __slots__ = ("edges", "rest", "weights")
 
-    def __init__(self, a, b, rest, weights, n_verts):
-        self.a, self.b, self.rest, self.weights, self.n_verts = a, b, rest, weights, n_verts
+    def __init__(self, edges, rest, weights):
+        self.edges, self.rest, self.weights = edges, rest, weights
 
 
 def tension_plan(edges, rest_length, vertex_masks):
     """The :class:`TensionPlan` of a face with ``edges`` (E, 2), their ``rest_length`` (E,)
     and the zone masks at its vertices ``vertex_masks`` (V, 8) (NaN masks count as 0, as in
     :func:`zone_tension`)."""
-    from ..mesh import _EPS_LEN
-
     m = np.nan_to_num(np.asarray(vertex_masks, np.float64).reshape(-1, N_ZONES), nan=0.0, posinf=0.0,
                       neginf=0.0)
     e = np.asarray(edges, np.int64).reshape(-1, 2)
@@ -277,26 +274,22 @@ def tension_plan(edges, rest_length, vertex_masks):
     degree = np.bincount(e.ravel(), minlength=len(m))
     per_vertex = m * (per_zone / np.maximum(degree, 1)[:, None])
     weights = per_vertex[e[:, 0]] + per_vertex[e[:, 1]]
-    rest = np.asarray(rest_length, np.float64).ravel()
-    keep = (weights != 0.0).any(axis=1) & (rest > _EPS_LEN)
-    return TensionPlan(np.ascontiguousarray(e[keep, 0]), np.ascontiguousarray(e[keep, 1]),
-                       rest[keep].astype(np.float32),
-                       np.ascontiguousarray(weights[keep].T, np.float32), len(m))
+    keep = (weights != 0.0).any(axis=1)
+    rest = np.asarray(rest_length, np.float32).ravel()[keep]
+    return TensionPlan(np.ascontiguousarray(e[keep]), rest, np.ascontiguousarray(weights[keep].T, np.float32))
 
 
 def plan_tension(plan, skin, gain=1.0):
     """This frame's tension-driven zone weights (8,) float32 from a :class:`TensionPlan` and
     the skin (V, 3): equal to ``zone_tension(masks, vertex_compression(skin, ...), gain)``
     (tested), with the same care for a non-finite gain or skin."""
+    from ..mesh import edge_lengths, edge_shrinkage
+
     p = np.asarray(skin, np.float32).reshape(-1, 3)
-    d = p[plan.a]
-    d -= p[plan.b]
-    length = np.sqrt(np.einsum("ij,ij->i", d, d))
+    g = float(gain)
+    g = g if math.isfinite(g) else 0.0
     with np.errstate(over="ignore", invalid="ignore"):
-        tau = np.maximum(np.nan_to_num((plan.rest - length) / plan.rest), 0.0)
-        g = float(gain)
-        g = g if math.isfinite(g) else 0.0
-        tau = tau.astype(np.float32, copy=False)
+        tau = np.maximum(np.nan_to_num(edge_shrinkage(plan.rest, edge_lengths(p, plan.edges))), 0.0)
         out = np.clip(g * np.array([np.dot(w, tau) for w in plan.weights]), 0.0, 1.0)
     return np.nan_to_num(out, nan=0.0).astype(np.float32)
 
