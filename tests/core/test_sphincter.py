@@ -108,6 +108,45 @@ def test_stretched_along_the_fibres_no_wrinkle():
     assert np.all(h == 0.0)
 
 
+def squeeze_half(rest, c=0.15, upper=True):
+    """Skin drawn together round the centre on one half of the sector only (theta > 0, or
+    < 0): what the brows coming down do beside the eye, from above."""
+    rho, theta = polar(rest)
+    side = theta > 0 if upper else theta < 0
+    t = np.where(side, theta * (1.0 - c), theta)
+    out = rest.copy()
+    out[:, 0] = CENTRE[0] + rho * np.cos(t) * 0.025
+    out[:, 2] = CENTRE[2] + rho * np.sin(t) * 0.02
+    return out
+
+
+@pytest.mark.parametrize("upper", [True, False])
+def test_one_half_squeezed_the_ring_does_not_fold(upper):
+    """The ring folds as it shortens all round (system.RING_GATE): squeezed on one half of
+    its sector only, no furrow, though that half alone is compressed as much as a full
+    squeeze compresses it; squeezed all round, the furrows.  (The grid is moved half a
+    cell up, so that no vertex lies on the axis between the halves.)"""
+    rest, edges, tris = plane()
+    rest[:, 2] += 0.0005
+    plan = system.build_plan(rest, edges, tris, [ring()])
+    half = system.heights(plan, squeeze_half(rest, upper=upper).astype(np.float32), [0.0])
+    full = system.heights(plan, squeeze_round(rest).astype(np.float32), [0.0])
+    eps = system.compression(plan, squeeze_half(rest, upper=upper).astype(np.float32).T[:, plan.verts])
+    assert eps.max() > 0.1  # the squeezed half is compressed
+    assert full.min() < -1e-4
+    assert np.abs(half).max() == 0.0
+
+
+def test_a_weak_squeeze_all_round_fades_in():
+    """The gate is a smooth ramp: a squeeze just over its start gives shallower furrows than
+    a full one, not none and not all."""
+    rest, edges, tris = plane()
+    plan = system.build_plan(rest, edges, tris, [ring()])
+    depth = [-system.heights(plan, squeeze_round(rest, c=c).astype(np.float32), [0.0]).min()
+             for c in (0.0, 0.012, 0.15)]
+    assert depth[0] == 0.0 < depth[1] < 0.5 * depth[2]
+
+
 def test_contracted_it_draws_the_skin_toward_its_centre():
     rest, edges, tris = plane()
     m = ring(k0=0.0)

@@ -9,7 +9,9 @@ half cycle ``u``.  With the irregularity ``a`` (0 to :data:`MAX_AMOUNT`)::
 
     l' = l + u [ S_l/2 sum_j sin(kappa_j l/u + psi_j) / kappa_j                  spacing
                + S_p sqrt(3)/4 sum_i sin(k_i d_i . p/u + phi_i) / k_i ]          course
-    f  = soft(1 + DEPTH a n(p)),   n(p) = sqrt(1/2) sum_i sin(q_i e_i . p/u + chi_i)   depth
+    f  = soft(1 + DEPTH a n(p~)),  n(p~) = sqrt(1/2) sum_i sin(q_i e_i . p~/u + chi_i)  depth
+
+with ``p~`` the point mirrored onto the face's +x side (:func:`mirrored`).
 
     S(a) = MAX_SLOPE tanh(a SLOPE / MAX_SLOPE),  S_l = SPACING_SHARE S,  S_p = S - S_l
 
@@ -25,6 +27,11 @@ at the default hardly anywhere; from about ``a = 1.5`` some furrows end partway)
   face's): two neighbouring muscles with the same half cycle and the same ``l`` where they
   meet (the Frontalis sheets, which share their attachment line, and the two sides at the
   midline) get the same warp and depth there, so a furrow still runs across both.
+* **Both sides alike in strength.**  The depth field is read at the point mirrored onto the
+  face's +x side (:func:`mirrored`: the face's local x = 0 is its plane of symmetry, as
+  for Blender's Mirror modifier), so on a symmetric face the left and the right furrows are
+  as deep as each other; the course and the spacing are not mirrored, so each side's
+  furrows take their own path.
 * **Static.**  Evaluated once on the rest mesh and baked into the static amplitude
   ``H(w') At f``; only ``A(eps)`` changes per frame, so a furrow stays where it is as it
   deepens.
@@ -58,7 +65,7 @@ DEPTH = 0.3  # the depth field's standard deviation per unit of amount (s(a) = D
 SPACING_SHARE = 0.7  # the share of the slope bound S that goes to the spacing term
 SPACING_WAVELENGTHS = (4.0, 10.0)  # the spacing term's wavelengths along l, in half cycles u
 WARP_WAVELENGTHS = (5.0, 20.0)  # the course's wavelengths in space, in half cycles u
-DEPTH_WAVELENGTHS = (6.0, 20.0)  # the depth field's wavelengths, in half cycles u
+DEPTH_WAVELENGTHS = (5.0, 14.0)  # the depth field's wavelengths, in half cycles u
 _SOFT = 0.25  # where the depth factor's ramp to 0 starts (see soft)
 
 _MASK = (1 << 64) - 1
@@ -135,6 +142,17 @@ def _spacing_components(seed, stream, wavelengths, n=2):
     return 2.0 * np.pi / lam, 2.0 * np.pi * r[n:]
 
 
+def mirrored(p):
+    """``p`` (K, 3), in half cycles, with x replaced by ``sqrt(x² + 1)``: the same at a point
+    and at its mirror image across the face's plane of symmetry x = 0 (Blender's: the
+    Mirror modifier's and symmetric sculpting's), smooth across it, and ``|x|`` a few half
+    cycles out.  The depth field is read there, so the two sides of a face get equally deep
+    furrows; the course and the spacing are read at ``p`` itself, so their lines differ."""
+    q = np.array(p, dtype=np.float64, copy=True)
+    q[:, 0] = np.sqrt(q[:, 0] * q[:, 0] + 1.0)
+    return q
+
+
 def apply(points, along, u, seed, amount):
     """The irregular phase and depth of a muscle's wrinkles (see the module doc).
 
@@ -172,5 +190,5 @@ def apply(points, along, u, seed, amount):
     k = np.linalg.norm(waves, axis=0)
     course = np.sin(p @ waves + phases) @ (((1.0 - SPACING_SHARE) * total / _DIAGONAL_BOUND) / k)
     waves, phases = components(seed, 2, DEPTH_WAVELENGTHS)
-    noise = np.sin(p @ waves + phases).sum(axis=1) * np.sqrt(0.5)  # standard deviation 1
+    noise = np.sin(mirrored(p) @ waves + phases).sum(axis=1) * np.sqrt(0.5)  # standard deviation 1
     return along + u * (spacing + course), soft(1.0 + DEPTH * a * noise)

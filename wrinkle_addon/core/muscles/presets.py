@@ -42,7 +42,7 @@ MUSCLES = (
     # beyond Zhang's ten: the sphincters he names as future work, and the Procerus
     ("ORBICULARIS_OCULI", "Orbicularis Oculi", "SPHINCTER"),
     ("ORBICULARIS_ORIS", "Orbicularis Oris", "SPHINCTER"),
-    ("PROCERUS", "Procerus", "LINEAR"),
+    ("PROCERUS", "Procerus", "SHEET"),
 )
 MIDLINE = ("ORBICULARIS_ORIS", "PROCERUS")  # one muscle on the midline, not a mirrored pair
 
@@ -71,8 +71,10 @@ ROLE_PARAMS = {
     "FRONTALIS_OUTER": {"lambda_w": 0.0, "n_wrinkles": 6, "pull": 0.18},
     # frown lines ("the elevens") and bunny lines are deep for their spacing
     # a wide fan, so the furrows near the glabella run 10-20 mm up and down
-    "CORRUGATOR": {"lambda_w": 0.15, "n_wrinkles": 2, "depth_factor": 0.6},
-    "NASALIS": {"lambda_w": 0.3, "n_wrinkles": 3, "angle": 30.0, "depth_factor": 0.4},
+    "CORRUGATOR": {"lambda_w": 0.08, "n_wrinkles": 2, "depth_factor": 0.6, "reach": 1.3},
+    # bunny lines on the sides of the nose, soft: the region ends at the insertion beside the
+    # bridge (a longer reach ran its arcs round the bridge into the other side's)
+    "NASALIS": {"lambda_w": 0.3, "n_wrinkles": 2, "angle": 30.0, "depth_factor": 0.25, "reach": 1.0},
     "ZYGOMATICUS_MINOR": {"lambda_w": 0.5, "n_wrinkles": 2},
     # the mouth muscles end at the mouth corner: a short reach and a narrow cone keep
     # their regions from running across the lips to the other side of the face
@@ -89,8 +91,7 @@ ROLE_PARAMS = {
     "ORBICULARIS_ORIS": {"lambda_w": 0.45, "n_wrinkles": 5, "angle": 45.0, "angle_c": 20.0,
                          "reach": 1.15, "depth_factor": 0.4},
     # the horizontal lines at the root of the nose: fine and shallow (a deep one reads as a tube)
-    "PROCERUS": {"lambda_w": 0.5, "n_wrinkles": 3, "angle": 25.0, "angle_c": 15.0, "reach": 1.3,
-                 "depth_factor": 0.3},
+    "PROCERUS": {"lambda_w": 0.5, "n_wrinkles": 3, "reach": 1.3, "depth_factor": 0.3},
 }
 
 
@@ -113,6 +114,30 @@ def estimate_landmarks(bbox_min, bbox_max):
         "chin": p(0.0, 0.20),
         "cheekbone_L": p(0.27, 0.50),
     }
+
+
+# The Corrugator's frown line, out from the midline in eyes' distances E: at the inner end
+# of the brow (0.18-0.22 E on the heads measured: ICT's own landmarks on its sample head and
+# a variant of it, and the procedural head's brows); its fibres' droop below horizontal, so
+# the two lines part slightly upward; and the Procerus' half width in E (the nose's root)
+CORRUGATOR_LINE = 0.2
+CORRUGATOR_DROOP = np.radians(8.0)
+PROCERUS_HALF_WIDTH = 0.17
+
+
+def _corrugator(g, ey, sign, e):
+    """The Corrugator sheet's corners ``[m_A1, m_A2, m_I2, m_I1]`` (x, z) for the side
+    ``sign``: its attachment line on the midline from 0.4 to 0.9 of the glabella's height
+    over the eyes, below and above the glabella; its length ``Ls`` (``reach`` times the
+    attachment-insertion distance, as ``glue.muscles.objects`` sizes a sheet) such that
+    eq. 7's middle furrow of two (``n_w = 2``, ``lambda_w`` 0.08: at ``(1 + lambda_w) Ls /
+    2``) lies ``CORRUGATOR_LINE`` E out; the fibres drooping by ``CORRUGATOR_DROOP``."""
+    lam, reach = ROLE_PARAMS["CORRUGATOR"]["lambda_w"], ROLE_PARAMS["CORRUGATOR"]["reach"]
+    ls = 2.0 * CORRUGATOR_LINE * e / (1.0 + lam)
+    span = ls / reach
+    top, bottom = g[1] + 0.7 * (g[1] - ey), g[1] - 0.6 * (g[1] - ey)
+    dx, dz = sign * span * np.cos(CORRUGATOR_DROOP), -span * np.sin(CORRUGATOR_DROOP)
+    return [(g[0], top), (g[0], bottom), (g[0] + dx, bottom + dz), (g[0] + dx, top + dz)]
 
 
 FOREHEAD = ("FRONTALIS_INNER", "FRONTALIS_MAJOR", "FRONTALIS_OUTER")  # one phase, one convergence
@@ -184,12 +209,12 @@ def layout(landmarks):
         "FRONTALIS_INNER": sheet(0),
         "FRONTALIS_MAJOR": sheet(1),
         "FRONTALIS_OUTER": sheet(2),
-        # horizontal fibres: the frown lines, across them, run vertically
-        # a sheet from the midline to the middle of the brow, its fibres horizontal: it draws
-        # the brows' heads together evenly over its height, so the frown lines ("the
-        # elevens") run straight up and down
-        "CORRUGATOR": [(x(0.02), g[1] + 0.9 * (g[1] - ey)), (x(0.02), g[1] - 0.4 * (g[1] - ey)),
-                       (x(0.45), g[1] - 0.4 * (g[1] - ey)), (x(0.45), g[1] + 0.9 * (g[1] - ey))],
+        # a sheet from the midline outward, its fibres a little below horizontal: it draws
+        # the brows' heads together and down, so its frown line (one of "the elevens") runs
+        # up and down at the inner end of the brow, the two parting slightly upward.  The
+        # line sits mid-region (``CORRUGATOR_LINE`` E out, between a bulge each side), where
+        # the skin between the brows bunches; the region's inner end is near the midline
+        "CORRUGATOR": _corrugator(g, ey, sign, e),
         "NASALIS": [(x(0.30), nose[1] + 0.25 * (ey - nose[1])), (x(0.06), ey - 0.05 * (ey - nose[1]))],
         "ZYGOMATICUS_MINOR": [
             (cheek[0] - sign * 0.25 * bw, cheek[1] - 0.1 * (ey - nose[1])),
@@ -209,9 +234,14 @@ def layout(landmarks):
         # the mouth's round the mouth line's middle, its axis a up to below the nose
         "ORBICULARIS_ORIS": [(g[0], mouth[1]), (g[0], mouth[1] + 0.8 * (nose[1] - mouth[1])),
                              (g[0] + sign * 1.2 * mid, mouth[1])],
-        # the Procerus from the nasal bone up into the skin between the brows: it draws that
-        # skin down, and the line at the root of the nose runs across it
-        "PROCERUS": [(g[0], ey - 0.6 * (g[1] - ey)), (g[0], ey + 0.5 * (g[1] - ey))],
+        # the Procerus, a thin sheet from the nasal bone up into the skin between the brows: it
+        # draws that skin straight down, so the lines at the root of the nose run straight
+        # across it (a linear muscle's furrows are arcs round its attachment, and rang the
+        # bridge); its sides fade over most of its width, so the bunching is soft
+        "PROCERUS": [(g[0] - PROCERUS_HALF_WIDTH * e, ey - 0.6 * (g[1] - ey)),
+                     (g[0] + PROCERUS_HALF_WIDTH * e, ey - 0.6 * (g[1] - ey)),
+                     (g[0] + PROCERUS_HALF_WIDTH * e, ey + 0.5 * (g[1] - ey)),
+                     (g[0] - PROCERUS_HALF_WIDTH * e, ey + 0.5 * (g[1] - ey))],
     }
     result = []
     for role, _name, kind in MUSCLES:

@@ -78,6 +78,12 @@ class Plan:
     blend_env: np.ndarray = None  # (B,) float32: each row's envelope At (keep-out included)
     blend_pair_vert: np.ndarray = None  # (Q,) index into ``height_sum.keys`` of each pair
     blend_verts: np.ndarray = None  # (V,) indices into ``height_sum.keys`` that are blended
+    # sphincters' rings (``ring_gate``): their rows, each row's group (ring and half of its
+    # sector) and envelope weight, and each group's total weight
+    ring_rows: np.ndarray = None  # (G,)
+    ring_of: np.ndarray = None  # (G,) 2 k + h: the k-th ring, the half h of its sector
+    ring_weight: np.ndarray = None  # (G,) float32
+    ring_total: np.ndarray = None  # (2 K,)
 
 
 # A(eps) smoothing cells, in half cycles u: (along the fibre, across it).  A row's splat and
@@ -215,6 +221,51 @@ def blend(plan, a, w, height):
     return out
 
 
+# A sphincter folds as its ring shortens all round: its wrinkles' A(eps) is scaled by the
+# smoothstep, from RING_GATE[0] to RING_GATE[1], of the lesser of the mean compressions along
+# its fibres (eq. 10, weighted by the envelope) over the two halves of its wrinkling sector
+# (either side of its axis a).  When only the brows come down, the skin beside the eye is
+# squeezed from above: the sector's lower half shortens and its upper half does not (its mean
+# stays under 0.001 on the sample head and a variant of it); when the eyes squint or the
+# cheeks rise, both halves shorten (0.013 to 0.07): crow's feet come with those, not with a
+# frown.  A sheet or a linear muscle has no ring and no gate.
+RING_GATE = (0.003, 0.015)
+
+
+def _ring_plan(muscles, row_muscle, row_env, row_along):
+    """The static part of :func:`ring_gate`: the sphincters' rows, each row's half of its
+    ring's sector (group ``2 k + (along >= 0)`` for the k-th ring), its envelope weight and
+    each group's total weight; or None without a sphincter."""
+    ring = np.array([m.sanitized().kind == SPHINCTER for m in muscles], bool)
+    if not ring.any() or len(row_muscle) == 0:
+        return None
+    rows = np.flatnonzero(ring[row_muscle])
+    if len(rows) == 0:
+        return None
+    _u, of = np.unique(row_muscle[rows], return_inverse=True)
+    group = 2 * of.ravel() + (np.asarray(row_along)[rows] >= 0.0)
+    weight = np.asarray(row_env, np.float64)[rows]
+    total = np.bincount(group, weights=weight, minlength=2 * (int(of.max()) + 1))
+    return rows, group, weight.astype(_F), total
+
+
+def ring_gate(plan, eps, a):
+    """``a`` (R,), each row's A(eps), with every sphincter's rows scaled by its ring's gate
+    (see ``RING_GATE``) for the compressions ``eps`` (R,) of eq. 10."""
+    if plan.ring_rows is None:
+        return a
+    rows, group = plan.ring_rows, plan.ring_of
+    mean = np.bincount(group, weights=plan.ring_weight * eps[rows], minlength=len(plan.ring_total))
+    # a half with no rows (kept out) leaves the ring to the other half
+    mean = np.where(plan.ring_total > 0, mean / np.where(plan.ring_total > 0, plan.ring_total, 1.0), np.inf)
+    least = np.minimum(mean[0::2], mean[1::2])
+    least = np.where(np.isfinite(least), least, 0.0)
+    gate = mesh.smoothstep((least - RING_GATE[0]) / (RING_GATE[1] - RING_GATE[0])).astype(_F)
+    out = np.asarray(a, _F).copy()
+    out[rows] *= gate[group // 2]
+    return out
+
+
 def wrinkle_limit(rest, edges, muscle, f):
     """The most wrinkles the mesh can show in the wrinkling region of ``f`` (the
     :class:`MuscleField` of ``muscle``), or None when its ``n_w`` is within that.
@@ -287,10 +338,13 @@ def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
     if keep_out is not None:
         row_env = row_env * keep_out[row_vert]
     row_family = families(fields)[row_muscle] if n_m else np.zeros(0, np.int64)
+    row_along = np.concatenate([np.asarray(f.coords, np.float64).reshape(-1, 2)[:, 0]
+                                if f.coords is not None else np.zeros(len(f.region)) for f in fields]
+                               + [np.zeros(0)])
     keep = row_amp != 0.0
     cells, cell_w, n_cells, cell_total = _smoothing(fields, keep)
     row_vert, row_muscle, row_amp, row_cdir = row_vert[keep], row_muscle[keep], row_amp[keep], row_cdir[keep]
-    row_env, row_family = row_env[keep], row_family[keep]
+    row_env, row_family, row_along = row_env[keep], row_family[keep], row_along[keep]
 
     offsets, inc_edge = mesh.vertex_incidence(edges, n)
     pair_row, pair_edge = mesh.gather_incident(offsets, inc_edge, row_vert)
@@ -321,6 +375,7 @@ def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
     wrinkled_local = np.unique(local[row_vert])
     pulls = bool(len(pull_vert)) and bool(np.any(muscle_pull > 0))
     folds = _blend_plan(local[row_vert], row_family, row_env, wrinkled_local) if len(row_vert) else None
+    rings = _ring_plan(muscles, row_muscle, row_env, row_along)
     footprint = combine.Footprint(offset_verts=verts.astype(np.int64) if pulls else np.zeros(0, np.int64),
                                   height_verts=verts[wrinkled_local].astype(np.int64))
     return Plan(
@@ -356,6 +411,8 @@ def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
         smooth_size=n_cells,
         **(dict(zip(("blend_rows", "blend_pair", "blend_env", "blend_pair_vert", "blend_verts"), folds))
            if folds is not None else {}),
+        **(dict(zip(("ring_rows", "ring_of", "ring_weight", "ring_total"), rings))
+           if rings is not None else {}),
     )
 
 
@@ -403,7 +460,8 @@ def _pull_and_heights(plan, s, contraction, strength):
     summed height W at the wrinkled local vertices ``plan.height_sum.keys``."""
     offset = waters_pull(plan, s, contraction)
     pulled = s if offset is None else s + offset
-    a = smooth_rows(plan, zhang.anisotropic(compression(plan, pulled)))
+    eps = compression(plan, pulled)
+    a = ring_gate(plan, eps, smooth_rows(plan, zhang.anisotropic(eps)))
     w = plan.row_amp * a
     return offset, pulled, blend(plan, a, w, plan.height_sum.sum(w)) * _F(np.nan_to_num(strength))
 

@@ -148,7 +148,8 @@ SHAPES = (
 )
 FAN_PITCH = np.radians(24.0)  # the angle between two crow's-feet furrows
 FAN_MAX = 12  # at most this many furrows
-LINE_WIDTH = 0.09  # a frown line's half-width (frame units)
+LINE_WIDTH = 0.09  # a frown line's least half-width (frame units)
+LINE_SOFTNESS = 2.0  # and at least this many times its depth: a soft valley, never a slit
 LINE_DIVERGE = 0.12  # how much the frown lines part per frame unit upward
 FOLD_RADIUS = 2.0  # the cheek fold's radius of curvature (frame units), its centre medial
 FOLD_BULGE = (0.5, 0.3, 0.2)  # the cheek's bulge beside the fold: height, distance, width
@@ -189,12 +190,21 @@ def fan(x, y, t, alpha, beta, gamma):
 def lines(x, y, t, alpha, beta, gamma=None):
     """Frown lines: two furrows, one each side of the frame's y axis (the midline), ``beta +
     t`` apart (the paper's spacing and time), parting by ``LINE_DIVERGE`` per unit upward,
-    ``LINE_WIDTH`` half-wide with the :func:`furrow` cross-section, full over 1.4 units of
-    length about the origin and gone at 2.4 units."""
+    :func:`line_width` half-wide with the :func:`furrow` cross-section, full over 1.4 units
+    of length about the origin and gone at 2.4 units."""
     half = 0.5 * max(float(beta) + float(t), 0.0) * (1.0 + LINE_DIVERGE * y)
-    q = (np.abs(x) - half) / LINE_WIDTH
+    q = (np.abs(x) - half) / line_width(alpha)
     length = 1.0 - smoothstep((np.abs(y) - 0.7) / 0.5)
     return alpha * furrow(q) * length
+
+
+def line_width(alpha):
+    """A frown line's half-width (frame units) for its depth ``alpha``: ``LINE_WIDTH``, or
+    ``LINE_SOFTNESS`` times the depth when that is wider.  The line is a valley twice that
+    wide between the zero crossings of :func:`furrow`, so never narrower than 4 times its
+    depth: real lines this deep are soft valleys with the skin bunched beside them, and a
+    narrower one reads as a cut."""
+    return max(LINE_WIDTH, LINE_SOFTNESS * abs(float(alpha)))
 
 
 def fold(x, y, t, alpha, beta, gamma=None):
@@ -292,10 +302,10 @@ def half_cycle(kind, t, alpha=0.0, beta=0.0, gamma=0.0, shape="PAPER"):
     ripples ``pi / b`` apart, the frown's ``pi (b + t)`` at a unit from its axes, the
     dimple about ``2 sqrt(t)`` across; the forehead's and the eye pouch's period is 2 pi.
     The variants: a crow's-foot furrow and the cheek fold ``2 / b``, a frown line
-    ``2 LINE_WIDTH``."""
+    ``2`` :func:`line_width`."""
     face = shape == "FACE" and kind in VARIANTS
     if face and kind == "FROWN":
-        return 2.0 * LINE_WIDTH
+        return 2.0 * line_width(alpha)
     if kind == "EYE_CORNER" or face:  # the rose's furrow, a crow's-foot furrow, the cheek fold
         return 2.0 / max(abs(float(beta)), _EPS)
     if kind == "CHEEK":
