@@ -147,7 +147,7 @@ def main(argv):
     realism.ICT_POSES = {s: POSES[s] for s in shots}
     try:
         bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
-        face, landmarks, frames = realism.build_ict(path)
+        face, landmarks, frames = realism.build_ict(path)[:3]
         scene = bpy.context.scene
         scene_setup.setup_cycles(scene, (args.size, args.size), samples=args.samples)
         scene_setup.add_portrait_rig(scene, face)

@@ -123,7 +123,24 @@ def clean(value):
 
 
 # --------------------------------------------------------------------------- faces
+def reference_json(path):
+    """The iBUG-68 reference of the head file ``path`` (``benchmarks/landmarks.py``): the
+    json beside it, or for the add-on's sample head ``tests/data``'s; None without one."""
+    from benchmarks import landmarks
+
+    ref = Path(path).with_name(landmarks.REFERENCE_NAME)
+    if ref.exists():
+        return ref
+    if Path(path).resolve() == Path(landmarks.DEFAULT_NPZ).resolve() and landmarks.DEFAULT_REFERENCE.exists():
+        return landmarks.DEFAULT_REFERENCE
+    return None
+
+
 def build_ict(path):
+    """(face, landmarks, {expression: frame}, inner brows): the inner brow ends are the
+    reference's iBUG 22 (``_L``, +X) and 21 (``_R``) on the rest mesh (the landmarks'
+    units) when the head has a reference (:func:`reference_json`), else None."""
+    from benchmarks import landmarks as ibug
     from sample_scenes.lib import ict, rigging
 
     data = ict.load_ict(path)
@@ -131,7 +148,16 @@ def build_ict(path):
     rigging.wrinkle_face(face, data["landmarks"], wrinkles_only=True)
     frames = {i + 1: values for i, values in enumerate(ICT_POSES.values())}
     rigging.key_shape_keys(face, frames)
-    return face, data["landmarks"], dict(zip(ICT_POSES, frames))
+    ref = reference_json(path)
+    inner = None
+    if ref is not None:
+        idx = ibug.load_reference(ref)
+        pos = np.asarray(data["positions"], np.float64)
+        inner = {"brow_inner_L": pos[idx[22]], "brow_inner_R": pos[idx[21]]}
+        log(f"inner brows: iBUG 22 (L) and 21 (R) of {ref}")
+    else:
+        log("no iBUG reference beside the head: the inner brows are its brow_inner_L/R landmarks")
+    return face, data["landmarks"], dict(zip(ICT_POSES, frames)), inner
 
 
 def build_procedural(target_verts=40000):
@@ -157,7 +183,7 @@ def build_procedural(target_verts=40000):
         for m in objects.live_muscles(face):  # keyed as the expression operator keys a preset
             m.ewrinkles_muscle.contraction = pose.get(m.ewrinkles_muscle.role, 0.0)
             m.keyframe_insert("ewrinkles_muscle.contraction", frame=frame)
-    return face, head["landmarks"], frames
+    return face, head["landmarks"], frames, None
 
 
 # --------------------------------------------------------------------------- heights
@@ -179,10 +205,21 @@ class FaceHeights:
         in_scene = {o.session_uid for o in bpy.context.scene.objects}
         self.static = self.source.build(face, self.mesh, in_scene)
         self.mm = 1000.0 * objects.face_scale(face)  # local units -> mm
+        # each muscle's role, in the order of the plan's muscles (the source's static.names)
+        roles = {ob.name: ob.ewrinkles_muscle.role for ob in objects.live_muscles(face)}
+        self.roles = [roles.get(n) for n in self.static.names]
+
+    def role_verts(self, role):
+        """The vertices (global indices) in the wrinkling regions of the muscles of ``role``."""
+        plan = self.static.plan
+        rows = np.isin(plan.row_muscle, [m for m, r in enumerate(self.roles) if r == role])
+        return np.unique(plan.verts[plan.row_vert[rows]])
 
     def at(self, frame):
         """(heights (N,) mm, wrinkled positions (N, 3) mm, largest difference in mm from the
-        positions the frame stage left in the evaluated mesh) on ``frame``."""
+        positions the frame stage left in the evaluated mesh, the posed skin before the
+        wrinkles (N, 3) mm: the skin the modifier stored plus the muscles' Waters pull, none
+        on a wrinkles-only face) on ``frame``."""
         from wrinkle_addon.core.muscles import system
         from wrinkle_addon.glue import meshio, stage
 
@@ -201,7 +238,12 @@ class FaceHeights:
         ev = self.face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
         shown = meshio.read_vector_prefix(ev, "position", n, np.empty((n, 3), np.float32))
         check = float(np.abs(shown - (skin + offset)).max()) * self.mm
-        return heights.astype(np.float64) * self.mm, (skin + offset).astype(np.float64) * self.mm, check
+        pulled = skin.astype(np.float64)
+        pull = system.waters_pull(plan, np.ascontiguousarray(skin[plan.verts].T), contraction)
+        if pull is not None:
+            pulled[plan.verts] += pull.T
+        return (heights.astype(np.float64) * self.mm, (skin + offset).astype(np.float64) * self.mm, check,
+                pulled * self.mm)
 
     def formed_at(self, vertex):
         """[(muscle name, its fully formed height at ``vertex`` in mm)] for the muscles
@@ -315,25 +357,91 @@ def nearest_front_vertex(posed, x, z, radius=1.5):
     return int(close[np.argmin(posed[close, 1])]) if len(close) else int(np.argmin(d))
 
 
-def nasolabial_bands(grid, lm):
+def nasolabial_band(grid, lm, side):
+    """The nasolabial band of one side ('L' or 'R') on ``grid`` (see the module doc)."""
     g = lm["glabella"]
-    band = np.zeros(grid.h.shape, bool)
-    for side, s in (("L", 1.0), ("R", -1.0)):
-        corner = lm[f"mouth_corner_{side}"]
-        mw = abs(corner[0] - g[0])
-        ala = lm.get(f"nose_ala_{side}")
-        if ala is None:  # the wing of the nose, roughly, from the nose tip
-            ala = lm["nose_tip"] + np.array([s * 0.65 * mw, 0.0, -0.3 * mw])
-        a = (ala[0] + s * 0.1 * mw, ala[2] + 0.1 * mw)
-        b = (corner[0] + s * 0.4 * mw, corner[2] - 0.2 * mw)
-        band |= rm.segment_band(grid, a, b, 0.3 * mw)
-    return band
+    s = 1.0 if side == "L" else -1.0
+    corner = lm[f"mouth_corner_{side}"]
+    mw = abs(corner[0] - g[0])
+    ala = lm.get(f"nose_ala_{side}")
+    if ala is None:  # the wing of the nose, roughly, from the nose tip
+        ala = lm["nose_tip"] + np.array([s * 0.65 * mw, 0.0, -0.3 * mw])
+    a = (ala[0] + s * 0.1 * mw, ala[2] + 0.1 * mw)
+    b = (corner[0] + s * 0.4 * mw, corner[2] - 0.2 * mw)
+    return rm.segment_band(grid, a, b, 0.3 * mw)
+
+
+def nasolabial_bands(grid, lm):
+    return nasolabial_band(grid, lm, "L") | nasolabial_band(grid, lm, "R")
 
 
 # --------------------------------------------------------------------------- measures
-def measure(name, expression, heights, posed, fh, landmarks, zones, step, dump):
+def log_balance(name, expression, feature, deepest, counts, got):
+    """Log one feature's left/right balance (``rm.lr_balance``'s ``got``)."""
+    def depth(v):
+        return "nothing" if v is None or not v > 0 else f"{v:.3f} mm"
+
+    why = ""
+    if got["ratio"] is None:
+        why = " (None: " + " and ".join(f"side {k} has nothing" for k in "LR"
+                                       if deepest[k] is None or not deepest[k] > 0) + ")"
+    ratio = "None" if got["ratio"] is None else f"{got['ratio']:.3f}"
+    log(f"{name} {expression}: balance {feature}: deepest L {depth(deepest['L'])}, R {depth(deepest['R'])}, "
+        f"counts [L, R] {got['counts']}, ratio {ratio}{why}")
+
+
+def balance(row, name, expression, feature, deepest, counts):
+    got = rm.lr_balance(deepest, counts)
+    row[f"lr_ratio_{feature}"], row[f"lr_counts_{feature}"] = got["ratio"], got["counts"]
+    log_balance(name, expression, feature, deepest, counts, got)
+
+
+def curvature(row, name, expression, region, grid):
+    """``ridge_curvature_max`` of ``grid`` into ``row``, logged with where it sits."""
+    got = rm.ridge_curvature_max(grid)
+    row["ridge_curvature_max"] = got["ridge_curvature_max"]
+    where = ("no cell 0.1 mm deep or high" if got["where"] is None else
+             "at x {:.1f} z {:.1f} mm (h {:+.2f} mm)".format(*got["where"]))
+    log(f"{name} {expression}: {region}: ridge_curvature_max {got['ridge_curvature_max']:.3f} /mm {where}")
+
+
+def slit_line(row, name, expression, region, grid, across):
+    """``slit_count`` of ``grid`` (furrows across ``across``) into ``row``, logged."""
+    got = rm.slits(grid, across)
+    row["slit_count"] = got["slit_count"]
+    lines = sorted(got["lines"], key=lambda t: -(t[3] or 0.0))[:8]
+    log(f"{name} {expression}: {region}: {got['slit_count']} slits; ridge-lines >= 0.1 mm deep at their "
+        "deepest 10 % (x, z, width, depth mm, width/depth) "
+        + ", ".join(f"({x:.1f}, {z:.1f}, unknown)" if w is None else
+                    f"({x:.1f}, {z:.1f}, {w:.2f}, {d:.2f}, {q:.1f}{' SLIT' if q < 3.0 else ''})"
+                    for x, z, w, d, q in lines))
+
+
+def strain(row, name, expression, heights, posed, skin, fh, lm):
+    """``strain_r``, ``strain_r_corrugator``, ``strain_r_procerus``: the correlation of the
+    skin's compression (rest -> posed skin, before the wrinkles) with |h|."""
+    eps = rm.vertex_compression(fh.mesh.rest * fh.mm, skin, fh.mesh.tris)
+    depth = np.abs(heights)
+    (x0, x1), (z0, z1) = glabella_box(lm)
+    front = rm.vertex_normals(posed, fh.mesh.tris)[:, 1] < 0.0
+    box = np.flatnonzero(front & (posed[:, 0] >= x0) & (posed[:, 0] <= x1)
+                         & (posed[:, 2] >= z0) & (posed[:, 2] <= z1))
+    for key, verts, what in (("strain_r", box, "glabella box, front"),
+                             ("strain_r_corrugator", fh.role_verts("CORRUGATOR"), "corrugator regions"),
+                             ("strain_r_procerus", fh.role_verts("PROCERUS"), "procerus region")):
+        row[key] = r = rm.pearson(eps[verts], depth[verts])
+        got = "None" if r is None else f"{r:.3f}"
+        detail = "no vertices"
+        if len(verts):
+            detail = (f"compression mean {eps[verts].mean():.3f} max {eps[verts].max():.3f}, |h| mean "
+                      f"{depth[verts].mean():.3f} max {depth[verts].max():.3f} mm")
+        log(f"{name} {expression}: {key} {got} over {len(verts)} vertices ({what}); {detail}")
+
+
+def measure(name, expression, heights, posed, fh, landmarks, zones, step, dump, skin=None, inner_brows=None):
     tris = fh.mesh.tris
-    lm = posed_landmarks(fh.mesh.rest, posed, {**landmarks, **eye_corners(landmarks)})
+    extra = {f"ref_{k}": v for k, v in (inner_brows or {}).items()}
+    lm = posed_landmarks(fh.mesh.rest, posed, {**landmarks, **eye_corners(landmarks), **extra})
     e = interocular(landmarks, fh.mm)
     row = {"face": name, "expression": expression}
     grids = {}
@@ -344,20 +452,52 @@ def measure(name, expression, heights, posed, fh, landmarks, zones, step, dump):
         row.update(got)
         log(f"{name} {expression}: forehead x {x[0]:.1f}..{x[1]:.1f} z {z[0]:.1f}..{z[1]:.1f} mm, "
             f"brow line {angle:.1f} deg, min height {np.nanmin(grid.h):.3f} mm, max {np.nanmax(grid.h):.3f}")
+        halves = rm.forehead_sides(grid, float(lm["glabella"][0]))
+        balance(row, name, expression, "forehead", {k: v[0] for k, v in halves.items()},
+                {k: v[1] for k, v in halves.items()})
+        curvature(row, name, expression, "forehead", grid)
+        slit_line(row, name, expression, "forehead", grid, "z")
     elif expression == "brow_down":
         x, z = glabella_box(lm)
         grids["glabella"] = grid = rm.front_grid(posed, tris, heights, x, z, step)
         got = rm.glabella(grid, lm["glabella"][0])
-        sides = got.pop("sides")
+        sides, lines = got.pop("sides"), got.pop("lines")
         row.update(got)
         for side, found in sides.items():
             found = sorted(found, key=lambda f: -f[1])[:6]
             log(f"{name} {expression}: side {side}: (angle deg, length >= 0.3 mm deep, depth mm) "
                 + ", ".join(f"({a:.0f}, {length:.1f}, {d:.2f})" for a, length, d in found))
+        # the frown lines against the inner brow ends
+        source = "iBUG 22 / 21" if inner_brows else "brow_inner_L/R landmarks"
+        inner = {k: float(lm[f"ref_brow_inner_{k}" if inner_brows else f"brow_inner_{k}"][0]) for k in "LR"}
+        off = rm.glabella_offset(lines, inner)
+        row["glabella_offset_mm"] = off["glabella_offset_mm"]
+        for side, v in off["sides"].items():
+            log(f"{name} {expression}: glabella offset side {side}: " + (
+                f"no frown line (inner brow x {inner[side]:.1f} mm, {source})" if v is None else
+                f"frown line centre x {v[0]:.1f} mm, inner brow x {v[1]:.1f} mm ({source}), "
+                f"offset {v[2]:.2f} mm"))
+        if skin is not None:
+            strain(row, name, expression, heights, posed, skin, fh, lm)
+        # no crow's feet when only the brows come down
+        worst = 0.0
+        for side, s in (("L", 1.0), ("R", -1.0)):
+            corner = lm[f"eye_corner_{side}"]
+            v, n = rm.corner_max_abs(posed, heights, corner, s, 0.3 * e, zones.eyelid)
+            worst = max(worst, v)
+            log(f"{name} {expression}: eye corner {side} (x {corner[0]:.1f} z {corner[2]:.1f} mm): "
+                f"largest |h| {v:.3f} mm over {n} vertices within 0.3 E = {0.3 * e:.1f} mm, lateral, "
+                "off the lids")
+        row["eye_corner_brow_down_mm"] = worst
+        deepest = {k: (max(float(np.max(r.depth)) for r in lines[k]) if lines[k] else None) for k in "LR"}
+        balance(row, name, expression, "frown", deepest, {k: len(lines[k]) for k in "LR"})
+        curvature(row, name, expression, "glabella", grid)
+        slit_line(row, name, expression, "glabella", grid, "x")
     elif expression == "smile":
         x, z = below_eyes(lm)
         grids["below_eyes"] = grid = rm.front_grid(posed, tris, heights, x, z, step)
-        grid.band = band = nasolabial_bands(grid, lm)  # dumped with the grid
+        per_side = {k: nasolabial_band(grid, lm, k) for k in "LR"}
+        grid.band = band = per_side["L"] | per_side["R"]  # dumped with the grid
         hit, low, other = rm.deepest_in_band(grid, band)
         in_band = float(np.nanmin(np.where(band, grid.h, np.nan))) if (band & grid.valid).any() else 0.0
         row["nasolabial_deepest"] = hit
@@ -379,6 +519,9 @@ def measure(name, expression, heights, posed, fh, landmarks, zones, step, dump):
                     + ", ".join(f"{n} ({f:+.2f} mm formed)" for n, f in fh.formed_at(v)))
             except Exception as err:  # noqa: BLE001 - a diagnostic only
                 log(f"{name} {expression}:   no per-muscle breakdown: {err!r}")
+        deepest = {k: rm.band_deepest(grid, b) for k, b in per_side.items()}
+        balance(row, name, expression, "nasolabial", deepest,
+                {k: int(v is not None and v >= 0.1) for k, v in deepest.items()})
     elif expression == "squint":
         sides = []
         for side, s in (("L", 1.0), ("R", -1.0)):
@@ -393,6 +536,9 @@ def measure(name, expression, heights, posed, fh, landmarks, zones, step, dump):
                 + ", ".join(f"({d:.0f}, {length:.1f}, {dp:.2f}, {r0:.0f}-{r1:.0f})"
                             for d, length, dp, r0, r1 in found))
         row.update(rm.crows_feet(sides))
+        by_side = dict(zip("LR", sides))
+        balance(row, name, expression, "crows_feet", {k: v["depth"] for k, v in by_side.items()},
+                {k: v["count"] for k, v in by_side.items()})
     elif expression == "anger":
         x, z = nose_root_box(lm, e)
         grids["nose_root"] = grid = rm.front_grid(posed, tris, heights, x, z, step)
@@ -402,6 +548,13 @@ def measure(name, expression, heights, posed, fh, landmarks, zones, step, dump):
         log(f"{name} {expression}: nose root x {x[0]:.1f}..{x[1]:.1f} z {z[0]:.1f}..{z[1]:.1f} mm: "
             "(angle from horizontal deg, length >= 0.2 mm deep, depth mm) "
             + ", ".join(f"({a:.0f}, {length:.1f}, {d:.2f})" for a, length, d in found))
+        got = rm.knots(grid)
+        row["nose_root_knots"] = got["knots"]
+        log(f"{name} {expression}: nose root knots {got['knots']}: typical furrow "
+            f"{got['furrow_depth']:.3f} mm, bulge {got['bulge']:.3f} mm; "
+            + ", ".join("at x {:.1f} z {:.1f} mm (nub {:.2f} mm high, a slit {:.1f} mm away)".format(*w)
+                        for w in got["where"]))
+        curvature(row, name, expression, "nose root", grid)
     row["eyelid_lip_max_mm"] = rm.max_abs(heights, zones.eyelid | zones.lip)
     if dump:
         Path(dump).mkdir(parents=True, exist_ok=True)
@@ -417,15 +570,15 @@ def run_face(name, build, step, dump):
 
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
     t = time.perf_counter()
-    face, landmarks, frames = build()
+    face, landmarks, frames, inner_brows = build()
     fh = FaceHeights(face)
     log(f"{name}: built in {time.perf_counter() - t:.1f} s, {len(fh.mesh.rest)} vertices, "
         f"{len(fh.static.plan.region_sizes)} muscles")
     zones = core_zones.face_zones(fh.mesh.rest, landmarks)
     for expression, frame in frames.items():
-        heights, posed, check = fh.at(frame)
+        heights, posed, check, skin = fh.at(frame)
         log(f"{name} {expression}: offset_check_mm {check:.2e} (the frame stage's offsets against ours)")
-        row = measure(name, expression, heights, posed, fh, landmarks, zones, step, dump)
+        row = measure(name, expression, heights, posed, fh, landmarks, zones, step, dump, skin, inner_brows)
         print(json.dumps(clean(row)), flush=True)
 
 
@@ -434,9 +587,9 @@ def landmark_line(path):
     landmarks against ICT's own 68, when the reference lies beside the head file."""
     from benchmarks import landmarks
 
-    ref = Path(path).with_name(landmarks.REFERENCE_NAME)
-    if not ref.exists():
-        log(f"{ref} not found: no landmarks line")
+    ref = reference_json(path)
+    if ref is None:
+        log(f"{Path(path).with_name(landmarks.REFERENCE_NAME)} not found: no landmarks line")
         return
     row = landmarks.measure(path, ref)
     row["face"] = "ict" if Path(path) == landmarks.DEFAULT_NPZ else Path(path).stem

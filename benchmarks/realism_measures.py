@@ -100,6 +100,48 @@ vertical, deeper than ``depth_mm`` (0.3 mm) over a deep length of at least ``cou
 * ``glabella_depth_mm``: on each side the deepest near-vertical ridge-line; the smaller
   of the two sides (goal >= 0.5).
 
+Brow down: where the frown lines sit (:func:`glabella_offset`)
+--------------------------------------------------------------
+The corrugators draw the brows' inner ends down and together, and the frown lines form at
+those ends.  Per side, the frown line is the deepest (largest -h) of :func:`glabella`'s
+frown lines on that side (near-vertical, deep enough, long enough: as above); its centre x
+is the mean x (the sub-cell position across) of its deep stretch, its points at least
+``depth_mm`` (0.3 mm) deep.  The inner end of the brow per side (the benchmark's): on a
+head with ICT's topology whose iBUG-68 reference lies beside the head file (the sample
+head's is ``tests/data/ict_head_landmarks.json``; ``benchmarks/landmarks.py``), the posed
+position of iBUG vertex 22 (the left brow's inner end, +X, ``_L``) and 21 (the right's);
+otherwise the face's ``brow_inner_L/R`` landmarks, posed.  ``glabella_offset_mm``: the
+larger over the two sides of |centre x - inner brow x| (horizontal only, mm); None when a
+side has no frown line (goal <= 4).
+
+Brow down: wrinkles follow compression (:func:`vertex_compression`, :func:`pearson`)
+------------------------------------------------------------------------------------
+Skin folds where it is squeezed.  The compression per vertex, from the rest mesh to the
+posed skin before the wrinkles (the skin the *Wrinkles* modifier stored plus the muscles'
+Waters pull; a wrinkles-only face such as ICT posed by its shape keys has no pull, its
+skin is the shape keys' mix): per triangle, rest and posed each in its own plane, the 2D
+deformation gradient F (the posed edges times the inverse of the rest edges), its smaller
+singular value lambda_min (the smaller principal stretch) and the compression c = max(0,
+1 - lambda_min) (:func:`triangle_compression`); per vertex the mean of its triangles' c
+weighted by their rest areas (:func:`vertex_compression`).  r is Pearson's correlation of
+that compression with |h| over a set of vertices (:func:`pearson`; None with fewer than
+20 vertices or no variance in either):
+
+* ``strain_r`` over the vertices whose posed (x, z) lies in the glabella box (the grid of
+  :func:`glabella`) and whose posed normal (area-weighted, :func:`vertex_normals`) faces
+  the viewer (-y) (goal >= 0.5);
+* ``strain_r_corrugator`` over the vertices of the wrinkling regions of the muscles whose
+  role is CORRUGATOR (both sides) (goal >= 0.3);
+* ``strain_r_procerus`` the same for the role PROCERUS (goal >= 0.3).
+
+Brow down: no crow's feet (:func:`corner_max_abs`)
+--------------------------------------------------
+``eye_corner_brow_down_mm``: the largest |h| over the vertices whose posed position lies
+within 0.3 E (3D; E the eyes' distance, as for the squint) of either outer eye corner (the
+posed corners of the squint, below), on the lateral side of that corner (its outward x
+against the corner's >= 0), outside the eyelid zone (goal <= 0.05: when only the brows
+come down, there are no crow's feet).
+
 Anger: the line at the root of the nose (:func:`procerus`)
 -----------------------------------------------------------
 The grid on the midline between the eyes (the benchmark's box: x within a quarter of the
@@ -165,6 +207,55 @@ with a slit cell within 2.5 mm (about 2 mm; 5 cells) of one of them.  ``knots`` 
 number (goal 0).  A clean fold passes: its bulge is low and round (and a single fold is
 the region's typical furrow, never twice as deep as itself).
 
+Anger: knots and sharp creases at the nose root (:func:`ridge_curvature_max`)
+----------------------------------------------------------------------------
+``nose_root_knots``: :func:`knots` (as for the smile) on the nose-root grid (goal 0).
+
+A seam, tube edge or streak is a narrow crest or trough: high curvature.
+``ridge_curvature_max``: the largest |curvature| (1/mm; both eigenvalues k1, k2 of the
+Hessian of h smoothed with a Gaussian of sigma 0.5 mm, central differences, as for
+:func:`knots`) over the valid cells at least 0.1 mm deep or high (|h| >= 0.1); 0 when there
+is none.  How sharp the sharpest crease or crest is.  On the nose root (anger), and for
+comparison the same number on the glabella (brow down) and the forehead (brow raise).
+(The central differences of central differences span two cells, 1 mm: a crease narrower
+than that reads below its true curvature.)  Goal: reported; see the ``nose_root_knots``
+goal.
+
+Slits (:func:`slits`)
+---------------------
+A furrow is a slit, a cut rather than a fold, when its width between the zero crossings
+across it is under 3 times its depth at its deepest 10 %.  Per ridge-line of
+:func:`ridges` at 0.1 mm (``detect_mm``; window 1 mm, gaps 1 mm; across z on the forehead,
+across x on the glabella): its points (one per grid line along) whose height is at or below
+the 10th percentile of its heights (its deepest 10 %, at least one point); at each, a walk
+across the furrow both ways from the minimum to where h first reaches 0 (linearly
+interpolated between cells); a walk that meets an invalid cell or the grid's edge first,
+or runs more than 10 mm, leaves that point's width unknown (it is skipped); the width is
+the distance between the two crossings (mm, across).  The ridge-line is a slit when the
+median of width / depth over its known points is under 3 (``ratio``; with none known it
+is not).  ``slit_count``: the number of slits, on the forehead (brow raise) and the
+glabella (brow down) (goal 0).  A V-groove with straight flanks of slope s is 2 / s
+wide per mm of depth: a slit where s > 2/3.
+
+Left and right (:func:`lr_balance`, :func:`forehead_sides`)
+-----------------------------------------------------------
+A symmetric expression wrinkles both sides alike.  Per feature, ``lr_ratio_<feature>`` is
+the deeper side's deepest depth over the shallower side's (>= 1; None when a side has
+nothing, no depth above 0), and ``lr_counts_<feature>`` the counts per side [L, R] (goal:
+ratio <= 1.15, counts equal):
+
+* ``forehead`` (brow raise): the forehead grid split at the glabella's x (L: x at or
+  beyond it); the deepest is -min h in each half; the count, the ridge-lines (across z, at
+  0.1 mm, window 1 mm, as :func:`forehead` finds them) whose extent along x within that
+  half is at least a tenth of the whole forehead's width (one that crosses the midline
+  counts on both sides).
+* ``frown`` (brow down): per side :func:`glabella`'s frown lines: the depth of the deepest,
+  their number.
+* ``nasolabial`` (smile): per side its own nasolabial band: -min h in the band
+  (:func:`band_deepest`), the count 1 if that is at least 0.1 mm, else 0.
+* ``crows_feet`` (squint): per side :func:`crows_feet_side`: the deepest crow's foot (0
+  without one: nothing), the number of crow's feet.
+
 Eyelids and lips (:func:`max_abs`)
 -----------------------------------
 ``eyelid_lip_max_mm``: the largest |h| over the vertices of the add-on's own eyelid and
@@ -178,7 +269,10 @@ import numpy as np
 from wrinkle_addon.core import raster
 
 __all__ = ["Grid", "front_grid", "ridges", "forehead", "glabella", "procerus", "crows_feet_side",
-           "crows_feet", "knots", "deepest_in_band", "segment_band", "max_abs", "curvatures", "RATIO_CAP"]
+           "crows_feet", "knots", "deepest_in_band", "segment_band", "max_abs", "curvatures", "RATIO_CAP",
+           "glabella_offset", "triangle_compression", "vertex_compression", "pearson", "vertex_normals",
+           "corner_max_abs", "lr_ratio", "lr_balance", "forehead_sides", "band_deepest",
+           "ridge_curvature_max", "slits"]
 
 RATIO_CAP = 100.0
 
@@ -594,8 +688,9 @@ def glabella(grid, midline_x, detect_mm=0.05, window_mm=1.0, gap_mm=1.0, depth_m
              max_angle_deg=30.0):
     """The brow-down measures on the glabella ``grid`` (see the module doc): a dict with
     ``glabella_furrows_per_side``, ``glabella_separation_mm``, ``glabella_length_mm``,
-    ``glabella_depth_mm``, and per side (``sides``) the ridge-lines as (angle from
-    vertical, deep length, depth)."""
+    ``glabella_depth_mm``, per side (``sides``) the ridge-lines as (angle from
+    vertical, deep length, depth), and per side (``lines``) the frown lines as
+    :class:`Ridge` (across x, along z)."""
     gap_cols = max(1, int(round(gap_mm / grid.step)) + 1)
     smooth = int(round(1.0 / grid.step))  # +-1 mm
     sides = {"L": [], "R": []}
@@ -619,7 +714,7 @@ def glabella(grid, midline_x, detect_mm=0.05, window_mm=1.0, gap_mm=1.0, depth_m
     return {"glabella_furrows_per_side": int(min(counts)),
             "glabella_separation_mm": float(min(gaps)) if gaps else None,
             "glabella_length_mm": float(min(lengths)), "glabella_depth_mm": float(min(depths)),
-            "sides": sides}
+            "sides": sides, "lines": lines}
 
 
 def _separation(a, b):
@@ -910,3 +1005,227 @@ def max_abs(values, mask):
     """The largest |value| where ``mask`` is True (0 for an empty mask)."""
     v = np.abs(np.asarray(values, float)[np.asarray(mask, bool)])
     return float(v.max()) if v.size else 0.0
+
+
+# --------------------------------------------------------------------------- glabella offset
+def glabella_offset(lines, inner_x, depth_mm=0.3):
+    """How far each side's frown line lies from the inner end of its brow (see the module
+    doc).  ``lines``: :func:`glabella`'s ``lines`` (per side its frown lines), ``inner_x``:
+    {'L': x, 'R': x} of the inner brow ends (mm).  A dict: ``glabella_offset_mm`` (None
+    when a side has no frown line) and ``sides``, per side (the line's centre x, the inner
+    brow's x, their distance) or None."""
+    sides = {}
+    for side in ("L", "R"):
+        found = lines.get(side, [])
+        if not found:
+            sides[side] = None
+            continue
+        r = max(found, key=lambda r: float(np.max(r.depth)))
+        deep = r.depth >= depth_mm
+        centre = float(np.mean(r.across[deep] if deep.any() else r.across))
+        x = float(inner_x[side])
+        sides[side] = (centre, x, abs(centre - x))
+    offsets = [v[2] for v in sides.values() if v is not None]
+    return {"glabella_offset_mm": float(max(offsets)) if len(offsets) == 2 else None, "sides": sides}
+
+
+# --------------------------------------------------------------------------- compression
+def _edges_2d(corners):
+    """Each triangle's edges 0->1 and 0->2 in its own plane, as the columns of a (T, 2, 2)
+    matrix (the first edge along the first axis), and the triangle's area."""
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    n = np.cross(e1, e2)
+    l1, ln = np.linalg.norm(e1, axis=1), np.linalg.norm(n, axis=1)
+    u = e1 / np.maximum(l1, 1e-30)[:, None]
+    w = np.cross(n, u) / np.maximum(ln, 1e-30)[:, None]
+    m = np.zeros((len(corners), 2, 2))
+    m[:, 0, 0] = l1
+    m[:, 0, 1] = np.einsum("ij,ij->i", e2, u)
+    m[:, 1, 1] = np.einsum("ij,ij->i", e2, w)
+    return m, 0.5 * ln
+
+
+def triangle_compression(rest, posed, tris):
+    """Per triangle (rest -> posed, each in its own plane): the compression max(0, 1 -
+    lambda_min), lambda_min the smaller singular value of its 2D deformation gradient, and
+    its rest area (degenerate triangles: compression 0, area 0)."""
+    tris = np.asarray(tris, np.int64).reshape(-1, 3)
+    rest_m, area = _edges_2d(np.asarray(rest, np.float64)[tris])
+    posed_m, _ = _edges_2d(np.asarray(posed, np.float64)[tris])
+    ok = (area > 0) & (rest_m[:, 0, 0] > 0) & (rest_m[:, 1, 1] != 0)
+    c = np.zeros(len(tris))
+    if ok.any():
+        f = posed_m[ok] @ np.linalg.inv(rest_m[ok])
+        lam = np.linalg.svd(f, compute_uv=False)[:, -1]
+        c[ok] = np.maximum(0.0, 1.0 - lam)
+    return c, np.where(ok, area, 0.0)
+
+
+def vertex_compression(rest, posed, tris):
+    """Per vertex the rest-area-weighted mean of its triangles' :func:`triangle_compression`
+    (0 for a vertex on no triangle)."""
+    tris = np.asarray(tris, np.int64).reshape(-1, 3)
+    c, area = triangle_compression(rest, posed, tris)
+    n = len(rest)
+    num = np.bincount(tris.ravel(), weights=np.repeat(c * area, 3), minlength=n)
+    den = np.bincount(tris.ravel(), weights=np.repeat(area, 3), minlength=n)
+    return np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+
+
+def pearson(a, b, min_count=20, tol=1e-6):
+    """The Pearson correlation of ``a`` and ``b`` over the entries where both are finite;
+    None with fewer than ``min_count`` of them or no variance in either (a standard
+    deviation under ``tol`` times max(1, its largest |value|): float32 round-off is none)."""
+    a, b = np.asarray(a, float).ravel(), np.asarray(b, float).ravel()
+    ok = np.isfinite(a) & np.isfinite(b)
+    a, b = a[ok], b[ok]
+    if len(a) < min_count:
+        return None
+    da, db = a - a.mean(), b - b.mean()
+    if any(np.sqrt(np.mean(d * d)) < tol * max(1.0, float(np.abs(v).max())) for d, v in ((da, a), (db, b))):
+        return None
+    return float((da @ db) / np.sqrt((da @ da) * (db @ db)))
+
+
+def vertex_normals(points, tris):
+    """Area-weighted vertex normals (unit; 0 for a vertex on no triangle)."""
+    p = np.asarray(points, np.float64)
+    tris = np.asarray(tris, np.int64).reshape(-1, 3)
+    n = np.cross(p[tris[:, 1]] - p[tris[:, 0]], p[tris[:, 2]] - p[tris[:, 0]])
+    out = np.stack([np.bincount(tris.ravel(), weights=np.repeat(n[:, a], 3), minlength=len(p))
+                    for a in range(3)], 1)
+    length = np.linalg.norm(out, axis=1, keepdims=True)
+    return out / np.where(length > 0, length, 1.0)
+
+
+# --------------------------------------------------------------------------- eye corners
+def corner_max_abs(points, values, corner, outward, radius, exclude=None):
+    """(the largest |value|, the number of vertices) over the ``points`` within ``radius``
+    (3D) of ``corner`` on its lateral side (``outward`` (x - corner x) >= 0), outside
+    ``exclude`` (a bool per point)."""
+    p = np.asarray(points, np.float64)
+    c = np.asarray(corner, np.float64)
+    mask = (np.linalg.norm(p - c, axis=1) <= radius) & (outward * (p[:, 0] - c[0]) >= 0.0)
+    if exclude is not None:
+        mask &= ~np.asarray(exclude, bool)
+    return max_abs(values, mask), int(mask.sum())
+
+
+# --------------------------------------------------------------------------- left/right balance
+def lr_ratio(left, right):
+    """The deeper side's depth over the shallower's (>= 1); None when either is None or not
+    positive (that side has nothing)."""
+    if left is None or right is None or not (left > 0 and right > 0):
+        return None
+    return float(max(left, right) / min(left, right))
+
+
+def lr_balance(deepest, counts):
+    """{'ratio': :func:`lr_ratio` of ``deepest`` ({'L': depth or None, 'R': ...}),
+    'counts': [L, R] of ``counts``}."""
+    return {"ratio": lr_ratio(deepest["L"], deepest["R"]), "counts": [int(counts["L"]), int(counts["R"])]}
+
+
+def forehead_sides(grid, split_x, detect_mm=0.1, window_mm=1.0, gap_mm=1.0, min_fraction=0.1):
+    """The forehead's halves split at ``split_x`` (L: x >= split_x): per side (the deepest
+    depth, -min h there, or None without a valid cell; the ridge-lines that run at least
+    ``min_fraction`` of the whole grid's width within that half)."""
+    xs = grid.xs
+    width = float(xs[-1] - xs[0]) if len(xs) > 1 else 0.0
+    found = ridges(grid, "z", detect_mm, window_mm, gap_mm) if width > 0 else []
+    out = {}
+    for side in ("L", "R"):
+        cols = xs >= split_x if side == "L" else xs < split_x
+        h = grid.h[:, cols]
+        deepest = float(-np.nanmin(h)) if np.isfinite(h).any() else None
+        count = 0
+        for r in found:
+            along = r.along[r.along >= split_x] if side == "L" else r.along[r.along < split_x]
+            if len(along) and float(along.max() - along.min()) >= min_fraction * width:
+                count += 1
+        out[side] = (deepest, count)
+    return out
+
+
+def band_deepest(grid, band):
+    """-min h over the valid cells of ``band`` (a bool array like the grid), or None."""
+    h = grid.h[np.asarray(band, bool) & grid.valid]
+    return float(-h.min()) if h.size else None
+
+
+# --------------------------------------------------------------------------- curvature
+def ridge_curvature_max(grid, min_mm=0.1, sigma_mm=0.5):
+    """The sharpest crease or crest on ``grid`` (see the module doc): a dict with
+    ``ridge_curvature_max`` (1/mm; 0 when no cell is ``min_mm`` deep or high) and
+    ``where``, (x, z, h) of that cell (None without one)."""
+    out = {"ridge_curvature_max": 0.0, "where": None}
+    h = grid.h
+    if h.size == 0 or not grid.valid.any():
+        return out
+    k1, k2 = curvatures(blur(h, sigma_mm, grid.step), grid.step)
+    k = np.fmax(np.abs(k1), np.abs(k2))
+    with np.errstate(invalid="ignore"):
+        mask = grid.valid & (np.abs(h) >= min_mm) & np.isfinite(k)
+    if not mask.any():
+        return out
+    kk, ii = np.unravel_index(np.argmax(np.where(mask, k, -np.inf)), h.shape)
+    out["ridge_curvature_max"] = float(k[kk, ii])
+    out["where"] = (float(grid.xs[ii]), float(grid.zs[kk]), float(h[kk, ii]))
+    return out
+
+
+# --------------------------------------------------------------------------- slits
+def _crossing(h, k0, j, sign, max_cells):
+    """Per point (``k0`` across, ``j`` along) of ``h`` (across, along): the distance in
+    cells from it, going ``sign`` across, to where ``h`` first reaches 0 (linear between
+    cells); NaN where the walk meets an invalid cell or the edge first, or runs farther
+    than ``max_cells``."""
+    o = np.arange(int(np.floor(max_cells)) + 2)
+    kk = k0[:, None] + sign * o[None]
+    inside = (kk >= 0) & (kk < h.shape[0])
+    v = np.where(inside, h[np.clip(kk, 0, h.shape[0] - 1), j[:, None]], np.nan)
+    with np.errstate(invalid="ignore"):
+        reached = v >= 0.0
+    first = np.argmax(reached, axis=1)
+    bad = (~np.isfinite(v) & (o[None] < first[:, None])).any(axis=1) | ~reached.any(axis=1)
+    first = np.maximum(first, 1)
+    rows = np.arange(len(k0))
+    prev, cur = v[rows, first - 1], v[rows, first]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = (first - 1) + (-prev) / (cur - prev)
+    return np.where(bad | ~(t <= max_cells + 1e-9), np.nan, t)
+
+
+def slits(grid, across, detect_mm=0.1, ratio=3.0, window_mm=1.0, gap_mm=1.0, max_mm=10.0):
+    """The furrows of ``grid`` that are slits (see the module doc): the ridge-lines of
+    minima across ``across`` ('z' or 'x', as :func:`ridges`) at least ``detect_mm`` deep
+    whose median width (between the zero crossings across) over depth, at their deepest
+    10 %, is under ``ratio``.  A dict: ``slit_count``; ``slits``, per slit (x, z of its
+    deepest point, the median width, the median depth over its measured points, mm); and
+    ``lines``, the same for every ridge-line with the ratio (None, width and depth too,
+    where no point's width is known)."""
+    out = {"slit_count": 0, "slits": [], "lines": []}
+    h = grid.h if across == "z" else grid.h.T  # (across, along)
+    if h.size == 0:
+        return out
+    max_cells = max_mm / grid.step
+    for r in ridges(grid, across, detect_mm, window_mm, gap_mm):
+        heights = -r.depth
+        sel = np.flatnonzero(heights <= np.percentile(heights, 10.0))
+        k0, j = r.cell[sel].astype(np.int64), r.cols[sel].astype(np.int64)
+        widths = grid.step * (_crossing(h, k0, j, 1, max_cells) + _crossing(h, k0, j, -1, max_cells))
+        known = np.isfinite(widths)
+        d = r.depth[sel]
+        top = sel[np.argmax(d)]
+        x, z = (r.along[top], r.across[top]) if across == "z" else (r.across[top], r.along[top])
+        if not known.any():
+            out["lines"].append((float(x), float(z), None, None, None))
+            continue
+        w, dk = widths[known], d[known]
+        q = float(np.median(w / dk))
+        line = (float(x), float(z), float(np.median(w)), float(np.median(dk)), q)
+        out["lines"].append(line)
+        if q < ratio:
+            out["slits"].append(line[:4])
+    out["slit_count"] = len(out["slits"])
+    return out

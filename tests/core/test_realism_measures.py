@@ -446,3 +446,214 @@ def test_slit_beside_a_nub_is_a_knot():
 ])
 def test_no_knot(nub, why):
     assert rm.knots(smile_field(nub=nub))["knots"] == 0, why
+
+
+# ------------------------------------------------------------------------- brow down: the frown line's offset
+def test_glabella_offset_from_the_inner_brows():
+    got = rm.glabella(glabella_field([(-7, 0.0, -8, 8, 0.5), (8, 0.0, -8, 8, 0.6)]), 0.0)
+    off = rm.glabella_offset(got["lines"], {"L": 9.5, "R": -10.0})
+    assert off["sides"]["R"] == pytest.approx((-7.0, -10.0, 3.0), abs=0.1)
+    assert off["sides"]["L"] == pytest.approx((8.0, 9.5, 1.5), abs=0.1)
+    assert off["glabella_offset_mm"] == pytest.approx(3.0, abs=0.1)  # the larger side
+    # the deepest frown line of a side counts; its centre is the mean x of its deep stretch
+    two = rm.glabella(glabella_field([(-7, 0.0, -8, 8, 0.5), (-13, 0.0, -8, 8, 0.9), (8, 0.0, -8, 8, 0.6)]),
+                      0.0)
+    right = rm.glabella_offset(two["lines"], {"L": 9.5, "R": -10.0})["sides"]["R"]
+    assert right[0] == pytest.approx(-13.0, abs=0.1)
+    # ... only the part at least 0.3 mm deep: a line 20 degrees from vertical through x = 6 at z = 0,
+    # 0.6 mm deep below z = 0 and 0.2 mm above: its deep stretch's mean x is 6 - 4 tan 20
+    slant = glabella_field([(-7, 0.0, -8, 8, 0.5), (6, 20.0, -8, -0.25, 0.6), (6, 20.0, 0, 8, 0.2)])
+    got = rm.glabella(slant, 0.0)
+    assert len(got["lines"]["L"]) == 1
+    centre = rm.glabella_offset(got["lines"], {"L": 9.5, "R": -10.0})["sides"]["L"][0]
+    assert centre == pytest.approx(6.0 - 4.0 * np.tan(np.radians(20.0)), abs=0.2)
+    one = rm.glabella(glabella_field([(-7, 0.0, -8, 8, 0.5)]), 0.0)
+    none = rm.glabella_offset(one["lines"], {"L": 9.5, "R": -10.0})
+    assert none["glabella_offset_mm"] is None and none["sides"]["L"] is None
+
+
+# --------------------------------------------------------------------------- compression
+def sheet(n=8, size=10.0):
+    """A flat n x n vertex sheet in the x-z plane (y = 0), two triangles per square."""
+    u = np.linspace(0.0, size, n)
+    X, Z = np.meshgrid(u, u)
+    pts = np.stack([X.ravel(), np.zeros(X.size), Z.ravel()], 1)
+    k = np.arange(n * n).reshape(n, n)
+    a, b, c, d = k[:-1, :-1].ravel(), k[:-1, 1:].ravel(), k[1:, 1:].ravel(), k[1:, :-1].ravel()
+    return pts, np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+
+
+def rotation(axis, deg):
+    c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+    i, j = [(1, 2), (0, 2), (0, 1)][axis]
+    r = np.eye(3)
+    r[i, i], r[i, j], r[j, i], r[j, j] = c, -s, s, c
+    return r
+
+
+@pytest.mark.parametrize("sx, sz, want", [(0.8, 1.0, 0.2), (0.7, 1.2, 0.3), (1.0, 1.0, 0.0), (1.1, 1.3, 0.0),
+                                          (0.9, 0.6, 0.4)])
+def test_uniform_compression_of_a_sheet(sx, sz, want):
+    rest, tris = sheet()
+    posed = rest * (sx, 1.0, sz)
+    posed = posed @ rotation(0, 35.0).T @ rotation(2, -20.0).T + (3.0, -4.0, 1.0)  # moved and turned in 3D
+    c, area = rm.triangle_compression(rest, posed, tris)
+    assert np.allclose(c, want, atol=1e-9)
+    assert np.allclose(area, (10.0 / 7) ** 2 / 2)
+    assert np.allclose(rm.vertex_compression(rest, posed, tris), want, atol=1e-9)
+
+
+def test_vertex_compression_is_the_area_weighted_mean():
+    rest = np.array([[0.0, 0, 0], [1, 0, 0], [0, 0, 1], [-2, 0, 0], [5, 0, 5]])
+    tris = np.array([[0, 1, 2], [0, 2, 3]])  # areas 0.5 and 1.0; vertex 4 on none
+    posed = rest.copy()
+    posed[1, 0] = 0.5  # the first triangle squeezed to half across x
+    c = rm.vertex_compression(rest, posed, tris)
+    assert c[1] == pytest.approx(0.5)
+    assert c[3] == pytest.approx(0.0)
+    assert c[0] == pytest.approx(0.5 * 0.5 / 1.5) and c[2] == pytest.approx(0.5 * 0.5 / 1.5)
+    assert c[4] == 0.0
+
+
+def test_pearson():
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=200)
+    assert rm.pearson(a, 2.0 * a + 1.0) == pytest.approx(1.0)
+    assert rm.pearson(a, -a) == pytest.approx(-1.0)
+    noisy = rm.pearson(a, a + rng.normal(size=200))
+    assert 0.5 < noisy < 0.9  # 1 / sqrt(2) expected
+    assert rm.pearson(a[:19], a[:19]) is None  # too few
+    assert rm.pearson(a, np.full(200, 0.3)) is None  # no variance
+    assert rm.pearson(a, 0.3 + 1e-8 * a) is None  # ... but round-off
+    b = a.copy()
+    b[:190] = np.nan
+    assert rm.pearson(a, b) is None  # only 10 finite pairs
+
+
+def test_vertex_normals_of_a_sheet_face_minus_y():
+    rest, tris = sheet()
+    assert np.allclose(rm.vertex_normals(rest, tris), (0.0, -1.0, 0.0))
+
+
+# --------------------------------------------------------------------------- brow down: the eye corners
+def test_corner_max_abs_lateral_near_and_outside_the_lids():
+    pts = np.array([[40.0, 0, 0], [45, 0, 0], [35, 0, 0], [49, 0, 3], [60, 0, 0], [44, 0, 1]])
+    h = np.array([0.01, -0.2, -0.9, 0.3, -2.0, -0.5])
+    lids = np.array([False, False, False, False, False, True])
+    # corner at x 40 going +x, radius 10: points 0, 1, 3 (2 is medial, 4 too far, 5 on the lid)
+    assert rm.corner_max_abs(pts, h, (40.0, 0, 0), 1.0, 10.0, lids) == (pytest.approx(0.3), 3)
+    assert rm.corner_max_abs(pts, h, (40.0, 0, 0), -1.0, 10.0, lids) == (pytest.approx(0.9), 2)
+    assert rm.corner_max_abs(pts, h, (40.0, 0, 0), 1.0, 10.0)[0] == pytest.approx(0.5)
+
+
+# --------------------------------------------------------------------------- left/right balance
+def test_lr_ratio():
+    assert rm.lr_ratio(0.5, 0.5) == 1.0
+    assert rm.lr_ratio(0.4, 0.6) == pytest.approx(1.5) and rm.lr_ratio(0.6, 0.4) == pytest.approx(1.5)
+    assert rm.lr_ratio(None, 0.5) is None and rm.lr_ratio(0.5, 0.0) is None
+    got = rm.lr_balance({"L": 0.3, "R": 0.6}, {"L": 2, "R": 3})
+    assert got == {"ratio": pytest.approx(2.0), "counts": [2, 3]}
+
+
+def test_forehead_sides_of_a_mirrored_field_balance():
+    sides = rm.forehead_sides(furrow_field([10, 22, 34, 46]), 0.0)
+    assert sides["L"] == pytest.approx(sides["R"]) and sides["L"][1] == 4
+    got = rm.lr_balance({s: v[0] for s, v in sides.items()}, {s: v[1] for s, v in sides.items()})
+    assert got == {"ratio": pytest.approx(1.0), "counts": [4, 4]}
+
+
+def test_forehead_sides_deeper_on_one_side():
+    # the right half (x < 0) at 0.6 mm, the left at 0.3 mm; one furrow only on the right
+    g = furrow_field([10, 22, 34, 46], present=lambda x: np.where(x < 0, 1.0, 0.5))
+    extra = furrow_field([55], height=60.0, bulge=0.0, present=lambda x: (x < -5).astype(float))
+    g = rm.Grid.of(g.h + extra.h, STEP, x0=g.xs[0])
+    sides = rm.forehead_sides(g, 0.0)
+    assert sides["R"][0] / sides["L"][0] == pytest.approx(2.0, rel=0.05)
+    assert (sides["L"][1], sides["R"][1]) == (4, 5)
+    # a ridge-line that barely crosses the split is not counted on the far side
+    short = furrow_field([20], present=lambda x: (x < 5.0).astype(float))
+    assert rm.forehead_sides(short, 0.0)["L"][1] == 0 and rm.forehead_sides(short, 0.0)["R"][1] == 1
+    empty = rm.forehead_sides(rm.Grid.of(np.zeros((40, 40))), 10.0)
+    assert rm.lr_ratio(empty["L"][0], empty["R"][0]) is None
+
+
+def test_band_deepest():
+    g = rm.Grid.of(np.array([[0.1, -0.4], [-0.9, np.nan]]))
+    assert rm.band_deepest(g, [[True, True], [False, True]]) == pytest.approx(0.4)
+    assert rm.band_deepest(g, [[False, False], [False, True]]) is None
+
+
+# --------------------------------------------------------------------------- ridge curvature
+def crease(sigma, depth=0.5, step=STEP):
+    """A vertical Gaussian crease -depth exp(-x^2 / (2 sigma^2)) at x = 0 on a 30 x 20 mm grid."""
+    xs = -15.0 + step * np.arange(int(30 / step) + 1)
+    zs = step * np.arange(int(20 / step) + 1)
+    X, _Z = np.meshgrid(xs, zs)
+    return rm.Grid.of(-depth * np.exp(-0.5 * (X / sigma) ** 2), step, x0=xs[0])
+
+
+def test_ridge_curvature_max_of_a_gaussian_crease():
+    narrow, wide = rm.ridge_curvature_max(crease(0.5)), rm.ridge_curvature_max(crease(1.5))
+    assert narrow["ridge_curvature_max"] > 2.0 * wide["ridge_curvature_max"]
+    # blurred with sigma 0.5 the crease is a Gaussian of s^2 = sigma^2 + 0.25 and depth 0.5 sigma / s:
+    # its curvature at the bottom 0.5 sigma / s^3
+    s = np.sqrt(1.5 ** 2 + 0.25)
+    assert wide["ridge_curvature_max"] == pytest.approx(0.5 * 1.5 / s ** 3, rel=0.15)
+    assert wide["where"][0] == pytest.approx(0.0, abs=0.3)
+    assert wide["where"][2] == pytest.approx(-0.5, abs=0.01)
+    # a bulge (a crest) as sharp as the crease reads the same
+    crest = crease(1.5)
+    crest.h = -crest.h
+    assert rm.ridge_curvature_max(crest)["ridge_curvature_max"] == pytest.approx(wide["ridge_curvature_max"])
+    # nothing 0.1 mm deep or high: no crease
+    assert rm.ridge_curvature_max(crease(0.5, depth=0.08)) == {"ridge_curvature_max": 0.0, "where": None}
+
+
+# --------------------------------------------------------------------------- slits
+def groove(profile, across="x", step=STEP):
+    """A straight groove with the height profile ``profile(s)`` (s mm across it) at s = 0:
+    vertical (across x) on a 30 x 20 mm grid, or horizontal (across z) on a 20 x 30 mm one."""
+    a = -15.0 + step * np.arange(int(30 / step) + 1)
+    b = step * np.arange(int(20 / step) + 1)
+    if across == "x":
+        X, _Z = np.meshgrid(a, b)
+        return rm.Grid.of(profile(X), step, x0=a[0], z0=b[0])
+    _X, Z = np.meshgrid(b, a)
+    return rm.Grid.of(profile(Z), step, x0=b[0], z0=a[0])
+
+
+def v_groove(s):  # 0.5 mm deep, crossing zero at +-0.6 mm, a shoulder beyond
+    return np.minimum(-0.5 + 0.5 * np.abs(s) / 0.6, 0.5)
+
+
+def valley(s):  # 0.5 mm deep, smooth, crossing zero at +-3 mm
+    return np.minimum(-0.5 * (1.0 - (s / 3.0) ** 2), 0.3)
+
+
+@pytest.mark.parametrize("across", ["x", "z"])
+def test_narrow_v_groove_is_a_slit_and_a_wide_valley_is_not(across):
+    got = rm.slits(groove(v_groove, across), across)
+    assert got["slit_count"] == 1
+    x, z, width, depth = got["slits"][0]
+    assert width == pytest.approx(1.2, abs=0.05) and depth == pytest.approx(0.5, abs=0.01)
+    assert (x if across == "x" else z) == pytest.approx(0.0, abs=0.3)
+    wide = rm.slits(groove(valley, across), across)
+    assert wide["slit_count"] == 0
+    assert len(wide["lines"]) == 1 and wide["lines"][0][2] == pytest.approx(6.0, abs=0.1)
+    assert wide["lines"][0][4] == pytest.approx(12.0, rel=0.05)
+
+
+def test_slit_ratio_threshold_and_unknown_widths():
+    # a V crossing zero at +-0.8: width 1.6, depth 0.5, ratio 3.2: not a slit at 3, a slit at 3.5
+    g = groove(lambda s: np.minimum(-0.5 + 0.5 * np.abs(s) / 0.8, 0.5))
+    assert rm.slits(g, "x")["slit_count"] == 0
+    assert rm.slits(g, "x", ratio=3.5)["slit_count"] == 1
+    # a groove in a field that never comes back to zero: no width known, no slit
+    low = rm.slits(groove(lambda s: np.minimum(v_groove(s), -0.05)), "x")
+    assert low["slit_count"] == 0 and low["lines"][0][2] is None
+    # ... nor when the walk meets an invalid cell first
+    g = groove(v_groove)
+    g.h[:, np.abs(g.xs - 0.5) < 0.1] = np.nan
+    assert rm.slits(g, "x")["slit_count"] == 0
+    # a shallow groove (under 0.1 mm) is not looked at
+    assert rm.slits(groove(lambda s: 0.15 * v_groove(s)), "x")["lines"] == []

@@ -91,7 +91,8 @@ ROLE_PARAMS = {
     "ORBICULARIS_ORIS": {"lambda_w": 0.45, "n_wrinkles": 5, "angle": 45.0, "angle_c": 20.0,
                          "reach": 1.15, "depth_factor": 0.4},
     # the horizontal lines at the root of the nose: fine and shallow (a deep one reads as a tube)
-    "PROCERUS": {"lambda_w": 0.5, "n_wrinkles": 3, "reach": 1.3, "depth_factor": 0.3},
+    # one soft line across the root of the nose between two bulges (three read as a bellows)
+    "PROCERUS": {"lambda_w": 0.5, "n_wrinkles": 2, "reach": 1.3, "depth_factor": 0.25},
 }
 
 
