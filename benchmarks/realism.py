@@ -371,13 +371,13 @@ def nasolabial_band(grid, lm, side):
     return rm.segment_band(grid, a, b, 0.3 * mw)
 
 
-def nasolabial_bands(grid, lm):
-    return nasolabial_band(grid, lm, "L") | nasolabial_band(grid, lm, "R")
-
 
 # --------------------------------------------------------------------------- measures
-def log_balance(name, expression, feature, deepest, counts, got):
-    """Log one feature's left/right balance (``rm.lr_balance``'s ``got``)."""
+def balance(row, name, expression, feature, deepest, counts):
+    """One feature's left/right balance (``rm.lr_balance``) into ``row``, logged."""
+    got = rm.lr_balance(deepest, counts)
+    row[f"lr_ratio_{feature}"], row[f"lr_counts_{feature}"] = got["ratio"], got["counts"]
+
     def depth(v):
         return "nothing" if v is None or not v > 0 else f"{v:.3f} mm"
 
@@ -388,12 +388,6 @@ def log_balance(name, expression, feature, deepest, counts, got):
     ratio = "None" if got["ratio"] is None else f"{got['ratio']:.3f}"
     log(f"{name} {expression}: balance {feature}: deepest L {depth(deepest['L'])}, R {depth(deepest['R'])}, "
         f"counts [L, R] {got['counts']}, ratio {ratio}{why}")
-
-
-def balance(row, name, expression, feature, deepest, counts):
-    got = rm.lr_balance(deepest, counts)
-    row[f"lr_ratio_{feature}"], row[f"lr_counts_{feature}"] = got["ratio"], got["counts"]
-    log_balance(name, expression, feature, deepest, counts, got)
 
 
 def curvature(row, name, expression, region, grid):

@@ -266,7 +266,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wrinkle_addon.core import raster
+from wrinkle_addon.core import mesh, raster
 
 __all__ = ["Grid", "front_grid", "ridges", "forehead", "glabella", "procerus", "crows_feet_side",
            "crows_feet", "knots", "deepest_in_band", "segment_band", "max_abs", "curvatures", "RATIO_CAP",
@@ -1088,17 +1088,12 @@ def pearson(a, b, min_count=20, tol=1e-6):
 
 
 def vertex_normals(points, tris):
-    """Area-weighted vertex normals (unit; 0 for a vertex on no triangle)."""
+    """Area-weighted vertex normals (unit; 0 for a vertex on no triangle): the add-on's own
+    (``wrinkle_addon.core.mesh.vertex_normals``)."""
     p = np.asarray(points, np.float64)
-    tris = np.asarray(tris, np.int64).reshape(-1, 3)
-    n = np.cross(p[tris[:, 1]] - p[tris[:, 0]], p[tris[:, 2]] - p[tris[:, 0]])
-    out = np.stack([np.bincount(tris.ravel(), weights=np.repeat(n[:, a], 3), minlength=len(p))
-                    for a in range(3)], 1)
-    length = np.linalg.norm(out, axis=1, keepdims=True)
-    return out / np.where(length > 0, length, 1.0)
+    return mesh.vertex_normals(p, np.asarray(tris, np.int64).reshape(-1, 3), len(p))
 
 
-# --------------------------------------------------------------------------- eye corners
 def corner_max_abs(points, values, corner, outward, radius, exclude=None):
     """(the largest |value|, the number of vertices) over the ``points`` within ``radius``
     (3D) of ``corner`` on its lateral side (``outward`` (x - corner x) >= 0), outside

@@ -250,8 +250,8 @@ def _ring_plan(muscles, row_muscle, row_env, row_along):
 
 
 def ring_gate(plan, eps, a):
-    """``a`` (R,), each row's A(eps), with every sphincter's rows scaled by its ring's gate
-    (see ``RING_GATE``) for the compressions ``eps`` (R,) of eq. 10."""
+    """``a`` (R,), each row's A(eps), with every sphincter's rows scaled in place by its
+    ring's gate (see ``RING_GATE``) for the compressions ``eps`` (R,) of eq. 10."""
     if plan.ring_rows is None:
         return a
     rows, group = plan.ring_rows, plan.ring_of
@@ -261,9 +261,8 @@ def ring_gate(plan, eps, a):
     least = np.minimum(mean[0::2], mean[1::2])
     least = np.where(np.isfinite(least), least, 0.0)
     gate = mesh.smoothstep((least - RING_GATE[0]) / (RING_GATE[1] - RING_GATE[0])).astype(_F)
-    out = np.asarray(a, _F).copy()
-    out[rows] *= gate[group // 2]
-    return out
+    a[rows] *= gate[group // 2]
+    return a
 
 
 def wrinkle_limit(rest, edges, muscle, f):
