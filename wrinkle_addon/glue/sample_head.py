@@ -25,6 +25,7 @@ import bpy
 import numpy as np
 
 from ..core import skin as core_skin
+from ..core import skin_age
 from ..core.muscles import landmark_finder
 from . import meshio, skin_materials
 from .errors import WrinkleError
@@ -149,6 +150,7 @@ def add(collection, name="Sample Head", parts=True, progress=None):
     me = _mesh(name, s["positions"], sizes, s["quads"].ravel(), s["corner_uvs"].reshape(-1, 2))
     skin_ob = bpy.data.objects.new(name, me)
     collection.objects.link(skin_ob)
+    skin_ob.ewrinkles_face.skin_age = skin_age.YOUNG  # young skin: no fine crackle at rest
     step(0.3, "adding the 53 expressions")
     _shape_keys(skin_ob, s["positions"], s["names"], s["deltas"])
     step(0.6, "the skin material" + (", the eyes, lashes and teeth" if parts else ""))

@@ -14,6 +14,7 @@ from bpy.props import (
     PointerProperty,
 )
 
+from ..core import skin_age
 from ..core.muscles import irregularity
 from .common import refresh
 from .maps import WrinkleMapSettings
@@ -24,6 +25,13 @@ def _enabled_update(self, context):
     from ..glue import frame
 
     frame.on_enabled_changed(self.id_data, context)
+
+
+def _skin_age_update(self, context):
+    from ..glue.bando import fine
+
+    fine.sync(self.id_data)  # the fine wrinkles' rest height and depth in the material
+    refresh(self, context)  # the muscles' depth and irregularity
 
 
 class WrinkleFaceSettings(bpy.types.PropertyGroup):
@@ -48,6 +56,16 @@ class WrinkleFaceSettings(bpy.types.PropertyGroup):
         "deepen. Each muscle scales it by its own Irregularity",
         default=irregularity.DEFAULT, min=0.0, max=irregularity.MAX_AMOUNT, soft_max=2.0,
         update=refresh,
+    )
+    skin_age: FloatProperty(
+        name="Skin Age",
+        description="How old the skin is, from young (0) to old (1). Older skin shows its fine "
+        "wrinkles at rest (Bando's rest height, scaled by twice the age), folds deeper (every "
+        "furrow's depth times 0.6 + 0.8 age) and more irregularly (Irregularity times 0.5 + age). "
+        "0.5 leaves every method as published; young skin shows no fine crackle at rest, only "
+        "where it compresses",
+        default=skin_age.NEUTRAL, min=0.0, max=1.0, subtype="FACTOR",
+        update=_skin_age_update,
     )
     seed: IntProperty(
         name="Seed",

@@ -85,7 +85,7 @@ class MuscleSource(WrinkleSource):
             return False
         if static.left_out and (static.left_out & in_scene):  # a muscle linked into the scene again
             return False
-        if objects.face_parameters(face) != static.face_params:  # Irregularity or Seed changed
+        if objects.face_parameters(face) != static.face_params:  # Irregularity, Seed or Skin Age changed
             return False
         touched = static.uids & changes.keys()
         if not touched:

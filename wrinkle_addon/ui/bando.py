@@ -5,6 +5,8 @@ source."""
 
 import bpy
 
+from ..core import skin_age
+
 
 class WRINKLE_UL_curves(bpy.types.UIList):
     bl_idname = "WRINKLE_UL_curves"
@@ -72,6 +74,9 @@ def draw_face_fine(layout, context, face):
         col.prop(fs, "strength")
         col.prop(fs, "distance")
         col.prop(fs, "rest_height")
+        age = face.ewrinkles_face.skin_age
+        layout.label(text=f"Skin Age {age:.2f}: rest height {skin_age.rest_height(fs.rest_height, age):.2f}, "
+                          f"depth x{skin_age.depth_factor(age):.2f}", icon="INFO")
 
 
 classes = (WRINKLE_UL_curves,)

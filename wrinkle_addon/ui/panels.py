@@ -29,6 +29,7 @@ class VIEW3D_PT_wrinkle_face(bpy.types.Panel):
             layout.operator("wrinkle.enable", icon="CHECKMARK")
         status_box(layout, status.get(face, frame.CHANNEL))
         layout.prop(s, "strength")
+        layout.prop(s, "skin_age", slider=True)
         for source in registry.sources():
             header, body = layout.panel(f"wrinkle_source_{source.name}", default_closed=not source.geometric)
             header.label(text=source.label)

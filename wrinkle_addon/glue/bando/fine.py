@@ -13,7 +13,7 @@ shrinkage across the fields and the *Fine Wrinkles* modifier that measures it ev
 import bpy
 import numpy as np
 
-from ...core import raster
+from ...core import raster, skin_age
 from ...core.bando import field, fine, mapped, parts
 from ...core.muscles import system
 from .. import frame as frame_stage
@@ -405,15 +405,17 @@ def setup_material(face):
 
 
 def sync(face):
-    """The group node's inputs from the face's settings."""
+    """The group node's inputs from the face's settings: its Depth and Rest Height as the
+    face's Skin Age makes them (``core.skin_age``), so a farm renders them with no add-on."""
     fs = settings(face)
     mat = fs.material
     node = mat.node_tree.nodes.get(GROUP_NODE) if mat is not None and mat.node_tree else None
     if node is None:
         return
+    age = face.ewrinkles_face.skin_age
     node.inputs["Strength"].default_value = fs.strength
-    node.inputs["Distance"].default_value = fs.distance
-    node.inputs["Rest Height"].default_value = fs.rest_height
+    node.inputs["Distance"].default_value = fs.distance * skin_age.depth_factor(age)
+    node.inputs["Rest Height"].default_value = skin_age.rest_height(fs.rest_height, age)
 
 
 def remove(face):

@@ -17,6 +17,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
+from ...core import skin_age
 from ...core.muscles import sphincter
 from ...core.muscles.waters import LINEAR, SHEET, SPHINCTER, Muscle
 
@@ -46,6 +47,8 @@ def to_core(muscle_ob, face):
     inv = np.array(face.matrix_world.inverted_safe(), dtype=np.float64)
     pts = pts @ inv[:3, :3].T + inv[:3, 3]
     scale = face_scale(face)
+    fs = face.ewrinkles_face
+    age = fs.skin_age
     if s.kind == "SHEET":
         if len(pts) < 4:
             pts = np.zeros((4, 3))
@@ -63,11 +66,11 @@ def to_core(muscle_ob, face):
         kind, length, spread, spread_c = LINEAR, s.radius / scale, s.angle, s.angle_c
     return Muscle(
         kind=kind, attachment=attachment, insertion=insertion, length=length, spread=spread,
-        spread_c=spread_c, lambda_w=s.lambda_w, n_wrinkles=s.n_wrinkles, k0=s.k0 / scale,
+        spread_c=spread_c, lambda_w=s.lambda_w, n_wrinkles=s.n_wrinkles, k0=s.k0 * skin_age.depth_factor(age) / scale,
         alpha=s.alpha, pull=s.pull, depth=s.depth / scale, wrinkles_only=s.wrinkles_only,
         back_reach=s.back_reach,
         fade_ends=s.fade_ends,
-        irregularity=face.ewrinkles_face.irregularity * s.irregularity, seed=face.ewrinkles_face.seed,
+        irregularity=fs.irregularity * skin_age.irregularity_factor(age) * s.irregularity, seed=fs.seed,
     )
 
 
@@ -99,9 +102,9 @@ def parameters(muscle_ob):
 
 def face_parameters(face):
     """The face's settings that reach every muscle's static plan (``to_core``): its
-    Irregularity and Seed, NaN given as ``"nan"`` (see :func:`parameters`)."""
+    Irregularity, Seed and Skin Age, NaN given as ``"nan"`` (see :func:`parameters`)."""
     s = face.ewrinkles_face
-    return tuple("nan" if v != v else v for v in (s.irregularity, s.seed))
+    return tuple("nan" if v != v else v for v in (s.irregularity, s.seed, s.skin_age))
 
 
 def name_seed(name):
