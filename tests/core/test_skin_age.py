@@ -25,7 +25,8 @@ def test_each_factor_grows_with_age_from_young_to_old():
     assert skin_age.rest_height(0.5, 0.0) == 0.0  # young: no fine crackle at rest
     assert skin_age.rest_height(0.5, 1.0) == 1.0  # old: full height at rest
     assert skin_age.rest_height(0.8, 1.0) == 1.0  # clamped
-    assert skin_age.depth_factor(0.0) == pytest.approx(0.6) and skin_age.depth_factor(1.0) == pytest.approx(1.4)
+    assert skin_age.depth_factor(0.0) == pytest.approx(0.6)
+    assert skin_age.depth_factor(1.0) == pytest.approx(1.4)
     assert skin_age.irregularity_factor(0.0) == 0.5 and skin_age.irregularity_factor(1.0) == 1.5
     assert 0.0 < skin_age.YOUNG < skin_age.NEUTRAL
 

@@ -66,7 +66,8 @@ def to_core(muscle_ob, face):
         kind, length, spread, spread_c = LINEAR, s.radius / scale, s.angle, s.angle_c
     return Muscle(
         kind=kind, attachment=attachment, insertion=insertion, length=length, spread=spread,
-        spread_c=spread_c, lambda_w=s.lambda_w, n_wrinkles=s.n_wrinkles, k0=s.k0 * skin_age.depth_factor(age) / scale,
+        spread_c=spread_c, lambda_w=s.lambda_w, n_wrinkles=s.n_wrinkles,
+        k0=s.k0 * skin_age.depth_factor(age) / scale,
         alpha=s.alpha, pull=s.pull, depth=s.depth / scale, wrinkles_only=s.wrinkles_only,
         back_reach=s.back_reach,
         fade_ends=s.fade_ends,
