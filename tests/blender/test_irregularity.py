@@ -13,7 +13,10 @@ from wrinkle_addon.core.muscles import irregularity
 from wrinkle_addon.glue.muscles import objects
 from wrinkle_addon.ui import muscles as muscles_ui
 
-CENTRAL = np.abs(np.linspace(-scenes.WIDTH / 2, scenes.WIDTH / 2, 70)) < 0.03  # make_face's columns
+# make_face's columns on one side of the midline: the depth and the long waves of the course
+# are mirrored across it (both sides alike), so they change slowly right beside it
+_X = np.linspace(-scenes.WIDTH / 2, scenes.WIDTH / 2, 70)
+CENTRAL = (_X > 0.005) & (_X < 0.045)
 
 
 def _heights(face, frame=4):

@@ -60,6 +60,15 @@ def test_muscle_set_and_expressions():
     kinds = {m.ewrinkles_muscle.role: m.ewrinkles_muscle.kind for m in muscles}
     assert kinds["ORBICULARIS_OCULI"] == kinds["ORBICULARIS_ORIS"] == "SPHINCTER"
     assert all(muscle_objects.to_core(m, face).problem() is None for m in muscles)
+    # the Frontalis' wrinkling region ends at the brows (its own span of the sheets' Ls),
+    # every other sheet's at its end
+    for m in muscles:
+        end = m.ewrinkles_muscle.region_end
+        if m.ewrinkles_muscle.role in presets.FOREHEAD:
+            assert end == pytest.approx(1.0 / presets.SHEET_LENGTH, rel=0.05)
+            assert muscle_objects.to_core(m, face).region_end == pytest.approx(end, rel=1e-6)
+        else:
+            assert end == 1.0
     with pytest.raises(RuntimeError, match="already has"):
         bpy.ops.wrinkle.add_muscle_set()
     scene = bpy.context.scene

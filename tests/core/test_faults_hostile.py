@@ -105,7 +105,7 @@ def test_hostile_muscle_parameters_build_bounded_plans():
     skin = squash_vertical(rest, 0.7).astype(np.float32)
     rng = np.random.default_rng(4)
     names = ["length", "spread", "spread_c", "lambda_w", "n_wrinkles", "k0", "alpha", "pull", "depth",
-             "back_reach"]
+             "back_reach", "region_end"]
     for trial in range(60):
         kind = SHEET if trial % 2 else LINEAR
         values = dict(zip(names, _pick(rng, len(names))))

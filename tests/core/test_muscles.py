@@ -1,11 +1,13 @@
 """Muscle coordinates (Zhang eqs. 1-3, 13-14), Waters' pull, and the per-frame system."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from tests.core.meshes import grid, squash_vertical
 from wrinkle_addon.core import mesh
-from wrinkle_addon.core.muscles import system
+from wrinkle_addon.core.muscles import system, zhang
 from wrinkle_addon.core.muscles.waters import LINEAR, SHEET, Muscle, muscle_field, radial_falloff
 
 
@@ -254,3 +256,51 @@ def test_formed_heights_are_the_wrinkle_at_full_amplitude():
         assert ratio.min() >= -1e-6 and ratio.max() <= 1.0 + 1e-6
         assert np.median(ratio) > lo
     assert np.all(h[formed == 0.0] == 0.0)  # nothing outside the region
+
+
+def test_deep_folds_are_limited_by_their_width():
+    """A fold is never deeper than its width allows (zhang.soft_fold): the cap is the
+    muscle's furrow width over FOLD_RATIO, narrowed with the skin's compression; shallow
+    folds are exactly the model's."""
+    rest, edges, tris, _ = grid(120, 80)
+    m = sheet(wrinkles_only=True)
+    plan = _system(rest, edges, tris, [m])
+    free = replace(plan, fold_weight=np.zeros_like(plan.fold_weight))
+    mild = squash_vertical(rest, 0.95).astype(np.float32)
+    np.testing.assert_array_equal(system.heights(plan, mild, [0.0]), system.heights(free, mild, [0.0]))
+
+    u = plan.half_cycles[0]
+    deep = sheet(wrinkles_only=True, k0=0.6 * u)  # a fold as deep as it is wide
+    plan = _system(rest, edges, tris, [deep])
+    free = replace(plan, fold_weight=np.zeros_like(plan.fold_weight))
+    squashed = squash_vertical(rest, 0.6).astype(np.float32)
+    h, h_free = system.heights(plan, squashed, [0.0]), system.heights(free, squashed, [0.0])
+    cap = zhang.fold_cap(u, 1.0)
+    assert -h_free.min() > cap  # the model alone cuts deeper than the cap
+    eps = system.compression(plan, squashed[plan.verts].T.copy())
+    assert -h.min() <= cap * (1.0 - eps.min()) + 1e-9
+    assert np.all(h >= h_free - 1e-9)  # only made shallower
+    np.testing.assert_array_equal(h[h_free > 0], h_free[h_free > 0])  # bulges untouched
+
+
+def test_sheet_region_ends_at_region_end():
+    """``region_end``: the wrinkling region stops at that fraction of Ls, the pull still
+    reaches Ls, and the furrows before the end stay where they were."""
+    rest, *_ = grid(120, 80)
+    full, short = sheet(), sheet(region_end=0.6)
+    f_full, f_short = muscle_field(rest, full), muscle_field(rest, short)
+    l = 0.08 - rest[:, 2]
+    assert l[f_short.region].max() <= 0.6 * short.length + 1e-12
+    assert l[f_full.region].max() > 0.9 * full.length
+    np.testing.assert_array_equal(np.sort(f_short.aoi), np.sort(f_full.aoi))  # the pull is the same
+    # away from the new end's fade (one half cycle), the amplitude is the same
+    u = f_full.half_cycle
+    same = np.flatnonzero(l[f_short.region] < 0.6 * short.length - u)
+    amp_full = dict(zip(f_full.region.tolist(), f_full.amplitude))
+    expect = [amp_full[v] for v in f_short.region[same]]
+    np.testing.assert_allclose(f_short.amplitude[same], expect, atol=1e-15)
+    # 1 (and a value that is not a number) is Zhang's region
+    for value in (1.0, float("nan")):
+        f = muscle_field(rest, sheet(region_end=value))
+        np.testing.assert_array_equal(f.region, f_full.region)
+        np.testing.assert_array_equal(f.amplitude, f_full.amplitude)

@@ -89,3 +89,30 @@ def test_edge_fade_reaches_zero_at_both_ends():
 def test_edge_shrinkage():
     tau = zhang.edge_shrinkage(np.array([1.0, 2.0, 0.0]), np.array([0.5, 3.0, 1.0]))
     np.testing.assert_allclose(tau, [0.5, -0.5, 0.0])
+
+
+def test_furrow_width_is_where_the_shape_is_below_zero():
+    # alpha = 1: d = 0.75 k0, and H < 0 where |t| (1 + t^2) > 0.75, i.e. |t| > t0
+    t0 = np.roots([1.0, 0.0, 1.0, -0.75])
+    t0 = float(t0[np.abs(t0.imag) < 1e-12].real[0])
+    assert zhang.furrow_width(1.0) == pytest.approx(2.0 * (1.0 - t0), abs=1e-3)
+    assert zhang.furrow_width(0.0) == pytest.approx(1.0, abs=1e-3)  # a triangle wave: half below
+    # a sharper shape has a narrower furrow
+    assert zhang.furrow_width(2.0) < zhang.furrow_width(1.0) < zhang.furrow_width(0.0)
+
+
+def test_soft_fold_limits_only_the_deep_furrows():
+    cap = 1.0
+    h = np.linspace(-5.0, 1.0, 6001)
+    out = zhang.soft_fold(h, cap)
+    shallow = h >= -zhang.FOLD_KNEE * cap
+    np.testing.assert_array_equal(out[shallow], h[shallow])  # bulges and shallow furrows as they were
+    assert out.min() > -cap  # never deeper than the cap
+    assert np.all(np.diff(out) >= 0.0)  # the order of depths is kept
+    slope = np.diff(out) / np.diff(h)
+    assert np.abs(np.diff(slope)).max() < 1e-2  # C1: no kink at the knee
+    np.testing.assert_array_equal(zhang.soft_fold(h, 0.0), h)  # cap 0: no limit
+    # one cap per height
+    caps = np.array([1.0, 2.0])
+    assert np.all(zhang.soft_fold(np.array([-3.0, -3.0]), caps) > -caps)
+    assert zhang.fold_cap(4.0, 1.0) == pytest.approx(zhang.furrow_width(1.0) * 4.0 / zhang.FOLD_RATIO)

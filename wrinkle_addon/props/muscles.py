@@ -134,6 +134,15 @@ class WrinkleMuscleSettings(bpy.types.PropertyGroup):
         default=0.0, min=0.0, max=2.0, subtype="FACTOR",
         update=refresh,
     )
+    region_end: FloatProperty(
+        name="Region End",
+        description="Sheet muscle: where the wrinkling region ends along the fibres, as a "
+        "fraction of its length Ls (1: at the sheet's end, Zhang's). The pull still reaches the "
+        "sheet's end, so the skin beyond is drawn along but does not wrinkle, as the brows' skin "
+        "under the forehead's lines",
+        default=1.0, min=0.0, max=1.0, subtype="FACTOR",
+        update=refresh,
+    )
     reach: FloatProperty(
         name="Outer Reach",
         description="Sphincter muscle: how far its area of influence reaches beyond the centre, in "

@@ -93,6 +93,7 @@ class VIEW3D_PT_wrinkle_muscle(bpy.types.Panel):
             layout.prop(s, "width_c")
             layout.prop(s, "depth")
             layout.prop(s, "back_reach")
+            layout.prop(s, "region_end")
         layout.separator()
         layout.prop(s, "lambda_w")
         layout.prop(s, "n_wrinkles")

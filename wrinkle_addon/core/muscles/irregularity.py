@@ -8,17 +8,21 @@ along the fibre that eq. 7 turns into the cycle position ``w``), in units of the
 half cycle ``u``.  With the irregularity ``a`` (0 to :data:`MAX_AMOUNT`)::
 
     l' = l + u [ S_l/2 sum_j sin(kappa_j l/u + psi_j) / kappa_j                  spacing
-               + S_p sqrt(3)/4 sum_i sin(k_i d_i . p/u + phi_i) / k_i ]          course
+               + c S_p sqrt(3)/4 sum_i sin(k_i d_i . p~/u + phi_i) / k_i         course: placement
+               + (1 - c) S_p sqrt(3)/4 sum_i sin(k'_i d'_i . p/u + phi'_i) / k'_i ]   and wander
     f  = soft(1 + DEPTH a n(p~)),  n(p~) = sqrt(1/2) sum_i sin(q_i e_i . p~/u + chi_i)  depth
 
-with ``p~`` the point mirrored onto the face's +x side (:func:`mirrored`).
+with ``p~`` the point mirrored onto the face's +x side (:func:`mirrored`) and
+``c`` = :data:`PLACEMENT_SHARE`.
 
     S(a) = MAX_SLOPE tanh(a SLOPE / MAX_SLOPE),  S_l = SPACING_SHARE S,  S_p = S - S_l
 
 ``l'`` takes the place of ``l`` in eq. 7, so the furrows (``w = 0``) move: the *spacing*
 term (two sinusoids in ``l``, wavelengths :data:`SPACING_WAVELENGTHS`) makes one furrow
-further from the next than another, the *course* term (four sinusoids in space,
-:data:`WARP_WAVELENGTHS`) bends each furrow into gentle waves.  ``f`` multiplies the
+further from the next than another, the *course* terms (four sinusoids in space each) bend
+each furrow into gentle waves: the long waves (:data:`PLACEMENT_WAVELENGTHS`), which shift a
+whole furrow, read at the mirrored point, and the short ones (:data:`WANDER_WAVELENGTHS`),
+which make it wander, at the point itself.  ``f`` multiplies the
 amplitude: the depth changes along every furrow (:data:`DEPTH_WAVELENGTHS`), and a furrow
 fades out smoothly where ``1 + DEPTH a n`` falls below 1/4 (``n`` is never below -2.83, so
 at the default hardly anywhere; from about ``a = 1.5`` some furrows end partway).
@@ -27,17 +31,23 @@ at the default hardly anywhere; from about ``a = 1.5`` some furrows end partway)
   face's): two neighbouring muscles with the same half cycle and the same ``l`` where they
   meet (the Frontalis sheets, which share their attachment line, and the two sides at the
   midline) get the same warp and depth there, so a furrow still runs across both.
-* **Both sides alike in strength.**  The depth field is read at the point mirrored onto the
-  face's +x side (:func:`mirrored`: the face's local x = 0 is its plane of symmetry, as
-  for Blender's Mirror modifier), so on a symmetric face the left and the right furrows are
-  as deep as each other; the course and the spacing are not mirrored, so each side's
-  furrows take their own path.
+* **Both sides alike in strength.**  The depth field and the course's long waves are read
+  at the point mirrored onto the face's +x side (:func:`mirrored`: the face's local x = 0
+  is its plane of symmetry, as for Blender's Mirror modifier), and the spacing is a function
+  of ``l``, which a mirrored pair of muscles shares at mirrored points; so on a symmetric
+  face the left and the right furrows lie at the same place on the compression and are as
+  deep and as many as each other.  (Read at the point itself, the long waves moved a whole
+  furrow by up to 0.8 u on one side and not on the other, off the compression's peak or
+  onto it: the left frown line and nasolabial fold were 1.2 times as deep as the right.)
+  Only the wander, the short waves with an L/R difference of about 0.05 u (at most 0.17 u),
+  is each side's own, so each side's furrows take their own path.
 * **Static.**  Evaluated once on the rest mesh and baked into the static amplitude
   ``H(w') At f``; only ``A(eps)`` changes per frame, so a furrow stays where it is as it
   deepens.
 * **Never folds.**  ``d_i`` (and ``e_i``) are the four diagonals of a cube turned by a
   seeded rotation.  For any unit vector ``t``, ``sum_i |d_i . t| <= 4/sqrt(3)``, so the
-  course's slope along any direction is at most ``S_p``; the spacing term's derivative in
+  course's slope along any direction is at most ``S_p`` (the mirror map's slope is at most
+  1, so the long waves read at ``p~`` keep their share of it); the spacing term's derivative in
   ``l`` is at most ``S_l``.  Along a fibre (``|grad l| = 1`` for Waters' linear and sheet
   muscles) ``dl'/dl >= 1 - S > 1 - MAX_SLOPE > 0``: furrows never fold or cross.  The four
   diagonals are also a tight frame (``sum_i (d_i . t)² = 4/3``), so the course looks the
@@ -64,7 +74,9 @@ SLOPE = 1.5  # the warp's slope bound per unit of amount, for small amounts
 DEPTH = 0.3  # the depth field's standard deviation per unit of amount (s(a) = DEPTH a)
 SPACING_SHARE = 0.7  # the share of the slope bound S that goes to the spacing term
 SPACING_WAVELENGTHS = (4.0, 10.0)  # the spacing term's wavelengths along l, in half cycles u
-WARP_WAVELENGTHS = (5.0, 20.0)  # the course's wavelengths in space, in half cycles u
+PLACEMENT_WAVELENGTHS = (10.0, 20.0)  # the course's long waves in space, in half cycles u
+WANDER_WAVELENGTHS = (5.0, 10.0)  # its short waves, in half cycles u
+PLACEMENT_SHARE = 0.8  # the share of the course's slope bound S_p that goes to the long waves
 DEPTH_WAVELENGTHS = (5.0, 14.0)  # the depth field's wavelengths, in half cycles u
 _SOFT = 0.25  # where the depth factor's ramp to 0 starts (see soft)
 
@@ -147,7 +159,7 @@ def mirrored(p):
     and at its mirror image across the face's plane of symmetry x = 0 (Blender's: the
     Mirror modifier's and symmetric sculpting's), smooth across it, and ``|x|`` a few half
     cycles out.  The depth field is read there, so the two sides of a face get equally deep
-    furrows; the course and the spacing are read at ``p`` itself, so their lines differ."""
+    furrows; the course's short waves are read at ``p`` itself, so their lines differ."""
     q = np.array(p, dtype=np.float64, copy=True)
     q[:, 0] = np.sqrt(q[:, 0] * q[:, 0] + 1.0)
     return q
@@ -185,10 +197,15 @@ def apply(points, along, u, seed, amount):
     # the spacing: a few sinusoids in along, each of slope amplitude S_l / n
     kappa, psi = _spacing_components(seed, 3, SPACING_WAVELENGTHS)
     spacing = np.sin(np.multiply.outer(along / u, kappa) + psi) @ (SPACING_SHARE * total / len(kappa) / kappa)
-    # the course: a field in space, each sinusoid's slope amplitude S_p over 4/sqrt(3)
-    waves, phases = components(seed, 1, WARP_WAVELENGTHS)
-    k = np.linalg.norm(waves, axis=0)
-    course = np.sin(p @ waves + phases) @ (((1.0 - SPACING_SHARE) * total / _DIAGONAL_BOUND) / k)
+    # the course: two fields in space, each sinusoid's slope amplitude its share of S_p over
+    # 4/sqrt(3); the long waves (a furrow's placement) read mirrored, the short ones (its wander) not
+    course = 0.0
+    for stream, wavelengths, share, at in ((1, PLACEMENT_WAVELENGTHS, PLACEMENT_SHARE, mirrored(p)),
+                                           (4, WANDER_WAVELENGTHS, 1.0 - PLACEMENT_SHARE, p)):
+        waves, phases = components(seed, stream, wavelengths)
+        k = np.linalg.norm(waves, axis=0)
+        course = course + np.sin(at @ waves + phases) @ (
+            ((1.0 - SPACING_SHARE) * share * total / _DIAGONAL_BOUND) / k)
     waves, phases = components(seed, 2, DEPTH_WAVELENGTHS)
     noise = np.sin(mirrored(p) @ waves + phases).sum(axis=1) * np.sqrt(0.5)  # standard deviation 1
     return along + u * (spacing + course), soft(1.0 + DEPTH * a * noise)

@@ -11,7 +11,7 @@ its plane.
 import numpy as np
 
 from . import sphincter
-from .waters import LINEAR, SPHINCTER, region_start, sheet_frame
+from .waters import LINEAR, SPHINCTER, region_end, region_start, sheet_frame
 
 
 def _polyline(points, closed=False):
@@ -67,4 +67,4 @@ def muscle_outline(m, arc_steps=16):
                           ((l0, -half), (l1, -half), (l1, half), (l0, half))], closed=True)
 
     back = m.back_reach * m.length
-    return {"aoi": rect(-back, m.length), "region": rect(region_start(m, m.length, -back), m.length)}
+    return {"aoi": rect(-back, m.length), "region": rect(region_start(m, m.length, -back), region_end(m))}

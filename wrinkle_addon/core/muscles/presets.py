@@ -70,8 +70,10 @@ ROLE_PARAMS = {
     "FRONTALIS_MAJOR": {"lambda_w": 0.0, "n_wrinkles": 6, "pull": 0.18},
     "FRONTALIS_OUTER": {"lambda_w": 0.0, "n_wrinkles": 6, "pull": 0.18},
     # frown lines ("the elevens") and bunny lines are deep for their spacing
-    # a wide fan, so the furrows near the glabella run 10-20 mm up and down
-    "CORRUGATOR": {"lambda_w": 0.08, "n_wrinkles": 2, "depth_factor": 0.6, "reach": 1.3},
+    # a wide fan, so the furrows near the glabella run 10-20 mm up and down.  The Corrugator's
+    # region starts on the midline (lambda_w 0), so the skin between the two lines bunches over
+    # a whole half cycle each side; begun 2 mm out (0.08), its fade ended on a steep ridge: a knot
+    "CORRUGATOR": {"lambda_w": 0.0, "n_wrinkles": 2, "depth_factor": 0.6, "reach": 1.3},
     # bunny lines on the sides of the nose, soft: the region ends at the insertion beside the
     # bridge (a longer reach ran its arcs round the bridge into the other side's)
     "NASALIS": {"lambda_w": 0.3, "n_wrinkles": 2, "angle": 30.0, "depth_factor": 0.25, "reach": 1.0},
@@ -131,8 +133,8 @@ def _corrugator(g, ey, sign, e):
     ``sign``: its attachment line on the midline from 0.4 to 0.9 of the glabella's height
     over the eyes, below and above the glabella; its length ``Ls`` (``reach`` times the
     attachment-insertion distance, as ``glue.muscles.objects`` sizes a sheet) such that
-    eq. 7's middle furrow of two (``n_w = 2``, ``lambda_w`` 0.08: at ``(1 + lambda_w) Ls /
-    2``) lies ``CORRUGATOR_LINE`` E out; the fibres drooping by ``CORRUGATOR_DROOP``."""
+    eq. 7's middle furrow of two (``n_w = 2``, ``lambda_w`` 0: at ``(1 + lambda_w) Ls / 2
+    = Ls / 2``) lies ``CORRUGATOR_LINE`` E out; the fibres drooping by ``CORRUGATOR_DROOP``."""
     lam, reach = ROLE_PARAMS["CORRUGATOR"]["lambda_w"], ROLE_PARAMS["CORRUGATOR"]["reach"]
     ls = 2.0 * CORRUGATOR_LINE * e / (1.0 + lam)
     span = ls / reach
@@ -214,7 +216,7 @@ def layout(landmarks):
         # the brows' heads together and down, so its frown line (one of "the elevens") runs
         # up and down at the inner end of the brow, the two parting slightly upward.  The
         # line sits mid-region (``CORRUGATOR_LINE`` E out, between a bulge each side), where
-        # the skin between the brows bunches; the region's inner end is near the midline
+        # the skin between the brows bunches; the region's inner end is on the midline
         "CORRUGATOR": _corrugator(g, ey, sign, e),
         "NASALIS": [(x(0.30), nose[1] + 0.25 * (ey - nose[1])), (x(0.06), ey - 0.05 * (ey - nose[1]))],
         "ZYGOMATICUS_MINOR": [

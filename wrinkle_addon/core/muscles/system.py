@@ -61,6 +61,7 @@ class Plan:
     row_muscle: np.ndarray
     row_amp: np.ndarray  # H(w) At (fade)
     height_sum: "mesh.Bins"  # rows -> local vertices with a wrinkle (``keys``)
+    fold_weight: np.ndarray  # (R,) float32: each row's share of its vertex's fold cap (_fold_weights)
     footprint: "combine.Footprint"  # where the muscles write: pulled and raised vertices
     output: "combine.Plan"  # the output stage for this plan alone (:func:`evaluate`)
     half_cycles: np.ndarray  # (M,) u per muscle
@@ -375,6 +376,7 @@ def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
     pulls = bool(len(pull_vert)) and bool(np.any(muscle_pull > 0))
     folds = _blend_plan(local[row_vert], row_family, row_env, wrinkled_local) if len(row_vert) else None
     rings = _ring_plan(muscles, row_muscle, row_env, row_along)
+    height_sum = mesh.Bins.of(local[row_vert], domain=wrinkled_local)
     footprint = combine.Footprint(offset_verts=verts.astype(np.int64) if pulls else np.zeros(0, np.int64),
                                   height_verts=verts[wrinkled_local].astype(np.int64))
     return Plan(
@@ -397,7 +399,8 @@ def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
         row_vert=local[row_vert],
         row_muscle=row_muscle,
         row_amp=row_amp.astype(_F),
-        height_sum=mesh.Bins.of(local[row_vert], domain=wrinkled_local),
+        height_sum=height_sum,
+        fold_weight=_fold_weights(muscles, fields, row_muscle, row_amp, height_sum),
         footprint=footprint,
         output=combine.build(n, tris, [footprint]),
         half_cycles=np.array([f.half_cycle for f in fields]),
@@ -413,6 +416,29 @@ def build_plan(rest, edges, tris, muscles, keep_out=None, smooth=True):
         **(dict(zip(("ring_rows", "ring_of", "ring_weight", "ring_total"), rings))
            if rings is not None else {}),
     )
+
+
+def _fold_weights(muscles, fields, row_muscle, row_amp, height_sum):
+    """Per row (float32), its share of the deepest fold at its vertex at rest: each muscle's
+    :func:`zhang.fold_cap` (from its half cycle and shape) times the row's amplitude over
+    the vertex's total, so ``height_sum.sum`` of them averages the caps of the muscles that
+    wrinkle there (:func:`fold_caps` scales them by the frame's compression)."""
+    caps = np.array([zhang.fold_cap(f.half_cycle, m.sanitized().alpha) for m, f in zip(muscles, fields)]
+                    + [0.0])[row_muscle]
+    weight = np.abs(row_amp)
+    total = height_sum.sum(weight)
+    total = np.append(np.where(total > 0.0, total, 1.0), 1.0)  # the last: rows in no bin
+    share = weight / total[height_sum.index]
+    return (share * caps).astype(_F)
+
+
+def fold_caps(plan, eps):
+    """The deepest each wrinkled vertex's fold gets this frame (``height_sum.keys``): the
+    muscles' caps at rest (:func:`_fold_weights`) times ``1 - eps``, the rows' compression
+    (eq. 10, clamped to [0, 1]): the skin that compresses narrows its furrows with it, the
+    furrow's width over the shortened skin is ``(1 - eps)`` of its width at rest, and so is
+    the depth a fold may reach without being a cut (:func:`zhang.soft_fold`)."""
+    return plan.height_sum.sum(plan.fold_weight * (1.0 - np.clip(eps, 0.0, 1.0)))
 
 
 def waters_pull(plan, skin, contraction):
@@ -462,7 +488,8 @@ def _pull_and_heights(plan, s, contraction, strength):
     eps = compression(plan, pulled)
     a = ring_gate(plan, eps, smooth_rows(plan, zhang.anisotropic(eps)))
     w = plan.row_amp * a
-    return offset, pulled, blend(plan, a, w, plan.height_sum.sum(w)) * _F(np.nan_to_num(strength))
+    height = zhang.soft_fold(blend(plan, a, w, plan.height_sum.sum(w)), fold_caps(plan, eps))
+    return offset, pulled, height * _F(np.nan_to_num(strength))
 
 
 def part(plan, skin, contraction, strength=1.0):
@@ -510,7 +537,8 @@ def formed_together(plan, muscles, strength=1.0):
     one family's, blended where folds of two families meet (:func:`blend`), exactly as
     :func:`heights` joins them on the face.  A sum of :func:`formed_heights` piles crossing
     folds into knots (the Corrugator's, the Procerus' and the Nasalis' at the root of the
-    nose) that the geometric wrinkles never show."""
+    nose) that the geometric wrinkles never show.  The fold limit (:func:`fold_caps`) is
+    left out: it depends on the frame's compression, for which a map's zone weight stands."""
     out = np.zeros(plan.n_verts, dtype=_F)
     if len(plan.verts) == 0:
         return out

@@ -74,6 +74,7 @@ class Muscle:
     wrinkles_only: bool = False
     fade_ends: bool = True
     back_reach: float = 0.0  # sheet only: reach behind the attachment line, as a fraction of Ls
+    region_end: float = 1.0  # sheet only: where the wrinkling region ends, as a fraction of Ls
     irregularity: float = 0.0  # natural irregularity of the furrows, 0 to 4 (0: Zhang's regular ones)
     seed: int = 0  # the irregularity's pattern: the face's, so that neighbouring muscles join
 
@@ -106,6 +107,7 @@ class Muscle:
             wrinkles_only=bool(self.wrinkles_only),
             fade_ends=bool(self.fade_ends),
             back_reach=f(self.back_reach, 0.0, 10.0, 0.0),
+            region_end=f(self.region_end, 0.0, 1.0, 1.0),
             irregularity=f(self.irregularity, 0.0, irregular.MAX_AMOUNT, 0.0),
             seed=_seed(self.seed),
         )
@@ -248,6 +250,15 @@ def region_start(m, length, lo=0.0):
     return lo + m.lambda_w * (length - lo)
 
 
+def region_end(m):
+    """Where a sheet's wrinkling region ends along ``l``: ``region_end`` of its length Ls
+    (1: Zhang's eq. 14, the sheet's end).  The pull still reaches Ls, and eq. 6's half cycle
+    is still measured over the whole sheet, so a shorter region keeps the furrows where they
+    are and only leaves out those past its end (the Frontalis draws the brows' skin down to
+    below the brows, but its lines are the forehead's)."""
+    return m.region_end * m.length
+
+
 def _seed(seed):
     """``seed`` as an int (0 for a value that is not a finite number)."""
     try:
@@ -256,10 +267,11 @@ def _seed(seed):
         return 0
 
 
-def _wrinkle_amplitude(l, across, across_c, across_max, m, length, lo=0.0, points=None):
+def _wrinkle_amplitude(l, across, across_c, across_max, m, length, lo=0.0, points=None, end=None):
     """``H(w) At`` (eqs. 5-7, with a C¹ attenuation in place of eqs. 12/15) plus the optional
     end fade, for a muscle whose extent along ``l`` is ``[lo, length]`` (``lo`` is 0 but for a
-    sheet that reaches behind its attachment line).  With ``points`` (the region's rest
+    sheet that reaches behind its attachment line) and whose region ends at ``end``
+    (``length`` unless given).  With ``points`` (the region's rest
     positions) and an irregularity, the phase ``l`` is warped and the envelope multiplied by
     the depth factor of :func:`irregularity.apply`; the region's ends and the end fade stay
     on the unwarped ``l``."""
@@ -273,7 +285,7 @@ def _wrinkle_amplitude(l, across, across_c, across_max, m, length, lo=0.0, point
     w = zhang.cycle_position(phase - lo, m.lambda_w, span, u)
     env = zhang.attenuation(across, across_c, across_max)
     if m.fade_ends:
-        env = env * zhang.edge_fade(l, region_start(m, length, lo), length, u)
+        env = env * zhang.edge_fade(l, region_start(m, length, lo), length if end is None else end, u)
     if depth is not None:
         env = env * depth
     return zhang.shape_function(w, u, m.k0, m.alpha) * env, float(u), env
@@ -328,7 +340,7 @@ def _sheet_field(rest, m):
     weight is its own Rs times ``sin(pi/2 D/Rs)``, so both start with the slope pi/2 at
     the line and the field is C¹ there (a one-sided sheet uses the squared profile
     instead, see :func:`radial_falloff`).  The wrinkling region then runs over the whole
-    extent ``[-B, Ls]``, with Zhang's lambda measured over it."""
+    extent ``[-B, Ls]``, with Zhang's lambda measured over it, up to :func:`region_end`."""
     origin, fibre, across, normal, r_s = sheet_frame(m)
     rel = rest - origin
     l = rel @ fibre  # distance from the attachment line, along the fibres
@@ -351,9 +363,10 @@ def _sheet_field(rest, m):
     pull_weight = across_falloff(h[aoi], h_c, half_w) * slab[aoi] * r
 
     start = region_start(m, m.length, -back)
-    region = np.flatnonzero(inside & (l >= start) & (l <= m.length))  # eq. 14
+    end = region_end(m)
+    region = np.flatnonzero(inside & (l >= start) & (l <= end))  # eq. 14
     amp, u, env = _wrinkle_amplitude(l[region], h[region], h_c, half_w, m, m.length, -back,
-                                     points=rest[region])
+                                     points=rest[region], end=end)
     amp, env = amp * slab[region], env * slab[region]
     cdir = np.broadcast_to(-fibre, (len(region), 3)).copy()
     coords = np.stack([l[region], rel[region] @ across], axis=1)

@@ -121,6 +121,10 @@ def build_muscle_set(context, face, landmarks):
         if role in presets.FOREHEAD:
             params["length"] = sheet_length
             params["back_reach"] = max(back_reach, 0.0)
+            # its lines are the forehead's: the region ends at the brows (the insertion line),
+            # though the pull reaches below them; past it a brow down folded the lateral brow
+            own_span = ((world[2] + world[3]) / 2 - (world[0] + world[1]) / 2).length
+            params["region_end"] = own_span / sheet_length
             # a slab as deep as the sheet is long: the forehead curves back toward the temples
             # across an outer sheet's width, and a thinner slab faded its furrows out at the
             # seam with its neighbour, so they ended bluntly there

@@ -69,7 +69,7 @@ def to_core(muscle_ob, face):
         spread_c=spread_c, lambda_w=s.lambda_w, n_wrinkles=s.n_wrinkles,
         k0=s.k0 * skin_age.depth_factor(age) / scale,
         alpha=s.alpha, pull=s.pull, depth=s.depth / scale, wrinkles_only=s.wrinkles_only,
-        back_reach=s.back_reach,
+        back_reach=s.back_reach, region_end=s.region_end,
         fade_ends=s.fade_ends,
         irregularity=fs.irregularity * skin_age.irregularity_factor(age) * s.irregularity, seed=fs.seed,
     )
@@ -82,7 +82,7 @@ def matrix_key(ob):
 
 
 # The float settings that reach the core (``to_core``); contraction is read per frame.
-FLOATS = ("radius", "angle", "angle_c", "length", "width", "width_c", "depth", "back_reach",
+FLOATS = ("radius", "angle", "angle_c", "length", "width", "width_c", "depth", "back_reach", "region_end",
           "reach", "lambda_w", "k0", "alpha", "pull", "irregularity")
 
 
@@ -95,8 +95,8 @@ def parameters(muscle_ob):
     s = muscle_ob.ewrinkles_muscle
     values = (
         muscle_ob.name, s.kind, s.radius, s.angle, s.angle_c, s.length, s.width, s.width_c, s.depth,
-        s.back_reach, s.reach, s.lambda_w, s.n_wrinkles, s.k0, s.alpha, s.pull, s.wrinkles_only, s.fade_ends,
-        s.irregularity,
+        s.back_reach, s.region_end, s.reach, s.lambda_w, s.n_wrinkles, s.k0, s.alpha, s.pull, s.wrinkles_only,
+        s.fade_ends, s.irregularity,
     )
     return tuple("nan" if v != v else v for v in values)
 
