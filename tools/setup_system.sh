@@ -6,9 +6,12 @@
 #   libegl-mesa0     EGL with Mesa's surfaceless platform: OpenGL with no window or display
 #   libgl1-mesa-dri  Mesa's drivers, llvmpipe (software) among them
 #   libosmesa6       OSMesa, the other way to an off-screen OpenGL context
+#   chromium         headless Chromium with software WebGL (SwiftShader): three.js renders an
+#                    exported .glb in it (tests/blender/test_export_engines.py)
 #
 # and, with the machine's npm, the Khronos glTF validator into tests/tools/gltf_validator/
-# (npm ci: the version its package-lock.json pins), which the glTF export's test runs.
+# and three.js's and Babylon.js's glTF loaders into tests/tools/engines/ (npm ci: the
+# versions their package-lock.json files pin), which the glTF export's tests run.
 #
 # (tests/core/test_shaders.py and tests/blender/test_shaders_ict.py, through
 # tests/core/glsl_runner.py.)  Idempotent: a package already installed is left alone, and
@@ -18,7 +21,7 @@
 # with CI=true), 3 no apt here or no right to use it, outside CI (tools/test.sh: SKIP).
 set -uo pipefail
 
-PACKAGES=(glslang-tools spirv-cross libegl-mesa0 libgl1-mesa-dri libosmesa6)
+PACKAGES=(glslang-tools spirv-cross libegl-mesa0 libgl1-mesa-dri libosmesa6 chromium)
 log() { echo "[setup_system] $*"; }
 in_ci() { [[ -n ${CI:-} && ${CI,,} != false && ${CI} != 0 ]]; }
 cannot() {
@@ -36,14 +39,19 @@ else
     cannot "no dpkg here (not Debian): install the equivalents of ${PACKAGES[*]} by hand"
     exit $?
 fi
-# The Khronos glTF validator (npm, pinned by tests/tools/gltf_validator/package-lock.json),
-# which tests/blender/test_export_gltf.py runs on the exported .glb under Node.
-validator() {
-    local dir=tests/tools/gltf_validator
-    [[ -d $dir/node_modules/gltf-validator ]] && { log "glTF validator installed already"; return 0; }
-    command -v npm >/dev/null 2>&1 || { cannot "no npm here: the glTF validator test needs Node.js and npm"; return $?; }
-    log "installing the glTF validator (npm ci in $dir)"
+# The Node packages the glTF tests run on the exported .glb, each pinned by its folder's
+# package-lock.json: the Khronos glTF validator (tests/blender/test_export_gltf.py) and the
+# engines' loaders (tests/blender/test_export_engines.py).
+npm_folder() {
+    local dir=$1 marker=$2 what=$3
+    [[ -d $dir/node_modules/$marker ]] && { log "$what installed already"; return 0; }
+    command -v npm >/dev/null 2>&1 || { cannot "no npm here: the $what tests need Node.js and npm"; return $?; }
+    log "installing the $what (npm ci in $dir)"
     (cd "$dir" && npm ci --no-audit --no-fund) || { log "npm ci failed in $dir"; return 1; }
+}
+validator() {
+    npm_folder tests/tools/gltf_validator gltf-validator "glTF validator" || return $?
+    npm_folder tests/tools/engines three "engines' glTF loaders (three.js, Babylon.js)"
 }
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
 

@@ -6,6 +6,12 @@
 // wrinkle_addon/core/maps/jimenez.py (`blend`) is the reference this file follows line by
 // line, and tests/core/test_shaders.py renders it and compares the two.
 //
+// Check it with glslang (Debian glslang-tools), from the repository's root:
+//
+//     glslangValidator -S frag docs/shaders/wrinkle_blend.glsl
+//
+// (tests/core/test_shader_commands.py runs that line as it is written here.)
+//
 // Use as an include: drop the `#version` line above (your shader has its own, 330 or
 // later), `#define WRINKLE_BLEND_NO_MAIN` before the text, and call wrinkleBlend() (or
 // the pieces) from your own fragment shader.  As it stands the file is a complete

@@ -4,8 +4,15 @@
 // same functions as docs/shaders/wrinkle_blend.glsl.  docs/wrinkle_map_shaders.md
 // explains the encodings, the zones and where the zone weights come from;
 // wrinkle_addon/core/maps/jimenez.py (`blend`) is the reference this file follows line by
-// line.  tests/core/test_shaders.py compiles it (glslangValidator -D -S frag -e main),
-// translates it to GLSL through SPIR-V and renders it against the reference.
+// line.  tests/core/test_shaders.py compiles it, translates it to GLSL through SPIR-V and
+// renders it against the reference.
+//
+// Compile it with glslang (Debian glslang-tools), from the repository's root: HLSL input
+// (-D) compiles only to SPIR-V (-V), here into wrinkle_blend.spv, entry point main:
+//
+//     glslangValidator -D -V -S frag -e main -o wrinkle_blend.spv docs/shaders/wrinkle_blend.hlsl
+//
+// (tests/core/test_shader_commands.py runs that line as it is written here.)
 //
 // Use as an include: `#define WRINKLE_BLEND_NO_MAIN` before `#include`-ing it, and call
 // wrinkleBlend() (or the pieces) from your own pixel shader.  As it stands the file is a

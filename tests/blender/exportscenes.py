@@ -55,3 +55,50 @@ def wrinkled_face_with_maps(seed=0, maps=True):
     ex.name, ex.source, ex.shape_key = "Brows", "SHAPE_KEY", "BrowsUp"
     ex.weights = (1.0, 1.0, 0, 0, 0, 0, 0, 0)
     return face, muscle
+
+
+def engine_face(base=True, parts=True):
+    """The face of :func:`wrinkled_face_with_maps` as a studio's would be: with a base normal
+    map (``base``), its colour from a procedural chain (an attribute, as the sample skin's
+    is), and a part (``parts``): an "Eyes" mesh parented to it whose shape key follows the
+    face's BrowsUp through a driver, as the sample head's eyes and teeth do."""
+    face, muscle = wrinkled_face_with_maps()
+    maps = face.ewrinkles_face.maps
+    tree = face.data.materials[0].node_tree
+    bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+    bsdf.inputs["Base Color"].default_value = SKIN_COLOUR
+    attr = tree.nodes.new("ShaderNodeAttribute")
+    attr.attribute_name = "wrinkle_skin"  # positions as a colour: what a consumer must not read
+    tree.links.new(attr.outputs["Color"], bsdf.inputs["Base Color"])
+    if base:
+        maps.base_image = mapscenes.data_image(
+            "Skin Normal", mapscenes.random_normal_map(np.random.default_rng(7), MAP_SIZE, 0.2))
+        bpy.context.view_layer.objects.active = face
+        assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
+    if parts:
+        me = bpy.data.meshes.new("Eyes")
+        me.from_pydata([(0.0, -0.01, 0.02), (0.01, -0.01, 0.02), (0.0, -0.01, 0.03)], [], [(0, 1, 2)])
+        eyes = bpy.data.objects.new("Eyes", me)
+        bpy.context.scene.collection.objects.link(eyes)
+        eyes.parent = face
+        eyes.shape_key_add(name="Basis", from_mix=False)
+        kb = eyes.shape_key_add(name="BrowsUp", from_mix=False)
+        kb.data[2].co = (0.0, -0.01, 0.04)
+        drv = kb.driver_add("value").driver
+        drv.type = "AVERAGE"
+        var = drv.variables.new()
+        var.targets[0].id_type = "KEY"
+        var.targets[0].id = face.data.shape_keys
+        var.targets[0].data_path = 'key_blocks["BrowsUp"].value'
+        mat = mapscenes.node_material("Cornea")
+        mat.node_tree.nodes.clear()
+        out = mat.node_tree.nodes.new("ShaderNodeOutputMaterial")
+        film = mat.node_tree.nodes.new("ShaderNodeBsdfTransparent")
+        mat.node_tree.links.new(film.outputs[0], out.inputs["Surface"])
+        mat.diffuse_color = (0.9, 0.9, 0.9, 0.1)
+        me.materials.append(mat)
+    bpy.context.view_layer.update()
+    return face, muscle
+
+
+SKIN_COLOUR = (0.56, 0.34, 0.26, 1.0)

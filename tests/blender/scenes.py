@@ -66,6 +66,14 @@ def animate_shape_key(face, frames_values):
         key.keyframe_insert("value", frame=frame)
 
 
+def select_only(ob):
+    """``ob`` the only selected object and the active one, as an operator on it expects."""
+    for other in bpy.context.view_layer.objects:
+        other.select_set(False)
+    ob.select_set(True)
+    bpy.context.view_layer.objects.active = ob
+
+
 def evaluated_positions(ob):
     dg = bpy.context.evaluated_depsgraph_get()
     ev = ob.evaluated_get(dg).data

@@ -49,6 +49,12 @@ def test_package_and_usd(shot, tmp_path, capfd):
     code, out, err = _run(capfd, "export", shot, "--format", "usd", "--out", tmp_path / "face.usdc")
     assert code == 0, err
     assert (tmp_path / "face.usdc").is_file()
+    # the add-on's attributes only with --keep-attributes (USD's text form names them)
+    for name, extra in (("lean.usda", ()), ("full.usda", ("--keep-attributes",))):
+        code, out, err = _run(capfd, "export", shot, "--format", "usd", "--out", tmp_path / name, *extra)
+        assert code == 0, err
+    full, lean = (tmp_path / "full.usda").read_text(), (tmp_path / "lean.usda").read_text()
+    assert "primvars:wrinkle_offset" in full and "wrinkle_offset" not in lean
 
 
 def test_refusals_exit_2_with_one_line(shot, tmp_path, capfd):

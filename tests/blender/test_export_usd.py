@@ -234,3 +234,50 @@ def test_usd_export_options_exist_in_this_blender():
     assert {"selected_objects_only", "export_animation", "evaluation_mode", "export_shapekeys",
             "export_armatures", "export_uvmaps", "export_materials"} <= set(kwargs)
     assert kwargs["export_shapekeys"] is False and kwargs["evaluation_mode"] == "RENDER"
+
+
+def test_usd_material_reads_as_a_preview_surface(tmp_path):
+    """What a UsdPreviewSurface consumer reads from the face's material: the base normal map
+    (written beside the file) through a UV reader of the mesh's own UV primvar, the colour as
+    the material's value (not its procedural chain, which reads an attribute), and nothing of
+    the wrinkle maps, which are no normal map."""
+    from tests.blender import exportscenes
+
+    face, _muscle = exportscenes.engine_face(parts=False)
+    out = usd.export(bpy.context, face, str(tmp_path / "face.usdc"), 1, 3)
+    data = read_usd(out["file"], [1])
+    surface = data["surface"]
+    assert surface["id"] == "UsdPreviewSurface"
+    normal = surface["normal"]["from"]
+    assert normal["id"] == "UsdUVTexture" and normal["exists"], normal
+    assert normal["file"].startswith("./textures/") and "Skin Normal" in normal["file"]
+    assert normal["st"]["id"] == "UsdPrimvarReader_float2" and normal["st"]["varname"] in data["primvars"]
+    assert surface["diffuseColor"]["from"] is None
+    np.testing.assert_allclose(surface["diffuseColor"]["value"], exportscenes.SKIN_COLOUR[:3], atol=1e-6)
+    # every texture the material reads is on disk
+    for name, inp in surface.items():
+        if isinstance(inp, dict) and inp.get("from") and "file" in inp["from"]:
+            assert inp["from"]["exists"], (name, inp)
+    # the face's own material is as it was
+    mat = face.data.materials[0]
+    assert mat.name == "Skin" and any(n.name == "Wrinkle Map Blend" for n in mat.node_tree.nodes)
+    assert [m.name for m in bpy.data.materials if m.name.startswith("Skin")] == ["Skin"]
+
+
+def test_usd_leaves_out_the_addons_attributes_unless_asked(tmp_path):
+    face, _muscle = animated_face()
+    modifiers = [m.name for m in face.modifiers]
+    lean = usd.export(bpy.context, face, str(tmp_path / "lean.usdc"), 1, LAST)
+    assert [m.name for m in face.modifiers] == modifiers  # the temporary modifier is gone
+    assert not [g for g in bpy.data.node_groups if g.name.startswith(usd.STRIP_NAME)]
+    full = usd.export(bpy.context, face, str(tmp_path / "full.usdc"), 1, LAST, keep_attributes=True)
+    lean_data, full_data = read_usd(lean["file"], CHECKED), read_usd(full["file"], CHECKED)
+    ours = [p for p in full_data["primvars"] if p.startswith(usd.INTERNAL_PREFIXES)]
+    assert {"wrinkle_offset", "wrinkle_skin", "wrinkle_frame"} <= set(ours)
+    assert not [p for p in lean_data["primvars"] if p.startswith(usd.INTERNAL_PREFIXES)]
+    assert "st" in lean_data["primvars"]
+    for f in CHECKED:  # the wrinkles are the same
+        np.testing.assert_array_equal(points(lean_data, f), points(full_data, f))
+    lean_mb, full_mb = os.path.getsize(lean["file"]) / 1e6, os.path.getsize(full["file"]) / 1e6
+    print(f"USD of {LAST} frames: {lean_mb:.3f} MB without the add-on's attributes, {full_mb:.3f} MB with")
+    assert lean_mb < full_mb

@@ -5,9 +5,7 @@ without the add-on, match a direct render with the add-on pixel for pixel.
 There is no Blender executable here (only the pip bpy module): the bundle's commands run
 through tests/tools/bpy_blender.py, which replays Blender's command line on the module."""
 
-import os
 import stat
-import subprocess
 import sys
 from pathlib import Path
 
@@ -16,22 +14,12 @@ import numpy as np
 import pytest
 import yaml
 
-from tests.blender import scenes
+from tests.blender import farmjobs, scenes
 from wrinkle_addon import cli
 
 ROOT = Path(__file__).resolve().parents[2]
 BUNDLE = ROOT / "farm" / "openjd"
-OPENJD = Path(sys.executable).parent / "openjd"
 
-
-def _openjd(*argv, log=None):
-    assert OPENJD.is_file(), "openjd-cli is pinned in requirements/ and installed by tools/setup_env.sh"
-    run = subprocess.run([str(OPENJD), *map(str, argv)], capture_output=True, text=True, timeout=600,
-                         env=dict(os.environ, PYTHONPATH=""))
-    if log is not None:
-        log.write_text(run.stdout + run.stderr)
-    assert run.returncode == 0, (run.stdout + run.stderr)[-4000:]
-    return run.stdout + run.stderr
 
 
 def _blender(tmp_path):
@@ -45,7 +33,7 @@ def _blender(tmp_path):
 
 
 def test_the_template_is_valid_and_the_defaults_name_its_parameters():
-    _openjd("check", BUNDLE / "template.yaml")
+    farmjobs.openjd("check", BUNDLE / "template.yaml")
     template = yaml.safe_load((BUNDLE / "template.yaml").read_text())
     names = {p["name"] for p in template["parameterDefinitions"]}
     assert {"BlendFile", "Frames", "ChunkSize", "OutputDir", "Engine", "Samples", "ResolutionX",
@@ -81,7 +69,7 @@ def test_a_local_run_in_two_chunks_matches_a_direct_render_pixel_for_pixel(tmp_p
     args = [a for p in params for a in ("-p", p)]
     logs = {}
     for step in ("Bake", "Render", "Assemble"):
-        logs[step] = _openjd("run", BUNDLE / "template.yaml", "--step", step, *args,
+        logs[step] = farmjobs.openjd("run", BUNDLE / "template.yaml", "--step", step, *args,
                              log=tmp_path / f"{step}.log")
     assert "Frame(CHUNK[INT]) = 1-2" in logs["Render"] and "Frame(CHUNK[INT]) = 3-4" in logs["Render"]
     assert logs["Render"].count("bpy_blender: add-on loaded: False") == 2  # each chunk without the add-on

@@ -41,17 +41,10 @@ def _baked_face(tmp_path, name="Face"):
     return face, face.ewrinkles_face.bake_object
 
 
-def _select_only(ob):
-    for o in bpy.context.selected_objects:
-        o.select_set(False)
-    ob.select_set(True)
-    bpy.context.view_layer.objects.active = ob
-
-
 # --------------------------------------------------------------------------- 2: only its own stand-in
 def test_free_bake_on_a_duplicated_face_leaves_the_originals_stand_in(tmp_path):
     face, baked = _baked_face(tmp_path)
-    _select_only(face)
+    scenes.select_only(face)
     assert bpy.ops.object.duplicate() == {"FINISHED"}  # Shift+D: the copy keeps the pointer
     copy = bpy.context.view_layer.objects.active
     assert copy != face and copy.ewrinkles_face.bake_object == baked
@@ -76,7 +69,7 @@ def test_free_bake_never_deletes_an_object_the_pointer_was_set_to(tmp_path, targ
     other.parent = face  # parented to the face, as a stand-in is, but no bake made it
     pointed = face if target == "face" else other
     face.ewrinkles_face.bake_object, face.hide_render = pointed, True
-    _select_only(face)
+    scenes.select_only(face)
     assert bpy.ops.wrinkle.free_bake() == {"FINISHED"}
     assert {"Face", "Prop"} <= set(bpy.data.objects.keys())
     assert face.ewrinkles_face.bake_object is None and not face.hide_render
@@ -102,7 +95,7 @@ def test_faces_whose_names_clean_alike_bake_to_files_of_their_own(tmp_path):
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "shot.blend"))
     faces = [bpy.data.objects["Face.L"], bpy.data.objects["Face L"]]
     for f in faces:
-        _select_only(f)
+        scenes.select_only(f)
         assert bpy.ops.wrinkle.bake(frame_start=1, frame_end=2) == {"FINISHED"}
     scene = bpy.context.scene
     for frame in (1, 2):
@@ -147,7 +140,7 @@ def test_bake_for_farm_checks_every_source_before_changing_anything(tmp_path):
     assert not bpy.data.filepath
     path = tmp_path / "abs" / "Face.abc"  # absolute: the Alembic cache alone could be written
     objects = set(bpy.data.objects.keys())
-    _select_only(face)
+    scenes.select_only(face)
     toy = _Refuses()
     sources.add(toy)
     try:
@@ -187,7 +180,7 @@ def test_the_stand_in_holds_the_live_shrinkage_under_a_final_subdivision(tmp_pat
         scene.frame_set(f)
         live[f] = _corner_shrinkage(face)
     assert len(live[2]) > len(face.data.loops) and live[2].max() > 0.1
-    _select_only(face)
+    scenes.select_only(face)
     assert bpy.ops.wrinkle.bake(frame_start=1, frame_end=2) == {"FINISHED"}
     assert not list((tmp_path / "wrinkle_bake").glob("*.exr"))
     for f in (1, 2):
@@ -244,11 +237,11 @@ def every_source_face():
     scene.cursor.location = (-0.02, -0.2, 0.05)
     assert bpy.ops.wrinkle.add_pattern(kind="FOREHEAD", where="CURSOR") == {"FINISHED"}
     curve = _tear_path()
-    _select_only(face)
+    scenes.select_only(face)
     curve.select_set(True)
     scene.frame_set(1)
     assert bpy.ops.wrinkle.add_shedding_tear(path="CURVE", duration=0.1, width=0.05) == {"FINISHED"}
-    _select_only(face)
+    scenes.select_only(face)
     scenes.add_camera_and_light(scene)
     scenes.setup_cycles(scene, size=64, samples=2)
     scene.frame_start, scene.frame_end = 1, 3
@@ -285,7 +278,7 @@ def test_every_source_renders_on_the_farm_as_it_does_live(tmp_path):
         bpy.ops.render.render(write_still=True)
         live[f] = scenes.load_png(tmp_path / f"live_{f}.png")
     assert np.abs(live[3] - live[2]).max() > 0.1  # the frames differ: a farm showing one fails
-    _select_only(face)
+    scenes.select_only(face)
     assert bpy.ops.wrinkle.bake() == {"FINISHED"}
     baked = face.ewrinkles_face.bake_object
     (reveal,) = _tear(face).modifiers
@@ -308,7 +301,7 @@ def test_every_source_renders_on_the_farm_as_it_does_live(tmp_path):
         diff = np.abs(farm - live[f])
         assert diff.max() < 2e-5 and (diff > 0).sum() <= 8, (f, float(diff.max()), int((diff > 0).sum()))
     face = bpy.data.objects["Face"]
-    _select_only(face)
+    scenes.select_only(face)
     assert bpy.ops.wrinkle.free_bake() == {"FINISHED"}
     (reveal,) = _tear(face).modifiers
     assert tears.get_input(reveal, "Skin") == face and reveal.node_group.name == shedding.GROUP_NAME

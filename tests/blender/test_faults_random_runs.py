@@ -27,20 +27,13 @@ from tests.blender.test_curves import add_curve, uv_face
 from wrinkle_addon.glue import frame as pipeline
 
 
-def _select_only(ob):
-    for other in bpy.context.view_layer.objects:
-        other.select_set(False)
-    ob.select_set(True)
-    bpy.context.view_layer.objects.active = ob
-
-
 def _internal_errors(*obs):
     return [pipeline.status_of(ob) for ob in obs if "Internal error" in pipeline.status_of(ob)]
 
 
 def test_a_face_scaled_to_zero_is_refused_with_a_message_not_an_internal_error(capsys):
     face, _muscle = scenes.wrinkled_face(contraction=1.0)
-    _select_only(face)
+    scenes.select_only(face)
     assert bpy.ops.wrinkle.add_landmarks() == {"FINISHED"}
     scene = bpy.context.scene
     scene.frame_set(1)
@@ -50,7 +43,7 @@ def test_a_face_scaled_to_zero_is_refused_with_a_message_not_an_internal_error(c
     assert not _internal_errors(face)
     assert "scaled to zero" in pipeline.status_of(face)
     assert "Expression Wrinkles: Face" not in capsys.readouterr().out  # the stage's error line
-    _select_only(face)
+    scenes.select_only(face)
     for op in (bpy.ops.wrinkle.add_muscle, bpy.ops.wrinkle.add_muscle_set):
         with pytest.raises(RuntimeError, match="scaled to zero"):
             op()
@@ -63,7 +56,7 @@ def test_snap_to_face_on_a_face_scaled_to_zero_says_why():
     face = uv_face()
     add_curve(face)
     face.scale = (0.0, 1.0, 1.0)
-    _select_only(face)
+    scenes.select_only(face)
     with pytest.raises(RuntimeError, match="scaled to zero") as err:
         bpy.ops.wrinkle.snap_curve()
     assert "unexpectedly" not in str(err.value)
@@ -72,11 +65,11 @@ def test_snap_to_face_on_a_face_scaled_to_zero_says_why():
 def test_a_mesh_in_edit_mode_through_a_linked_duplicate_pauses_that_face(capsys):
     face = uv_face(enable=False)
     face.ewrinkles_face.fine_wrinkles.resolution = "512"
-    _select_only(face)
+    scenes.select_only(face)
     assert bpy.ops.wrinkle.carve_fine() == {"FINISHED"}
     twin = face.copy()  # a linked duplicate: the same mesh
     bpy.context.scene.collection.objects.link(twin)
-    _select_only(face)
+    scenes.select_only(face)
     bpy.ops.object.mode_set(mode="EDIT")
     capsys.readouterr()  # the carving's progress lines
     try:

@@ -3,7 +3,8 @@ replayed on the pip ``bpy`` module, which has no executable.
 
 Only what the farm jobs in ``farm/`` use, processed left to right as Blender does:
 ``-b``, ``-y``, ``--factory-startup``, a .blend file (opened), ``--python-expr``,
-``--python``, ``--python-exit-code``, ``-o``/``--render-output``, ``-F``/``--render-format``,
+``--python``, ``--python-exit-code``, ``--python-use-system-env`` (the module's interpreter
+reads ``PYTHONPATH`` anyway), ``-o``/``--render-output``, ``-F``/``--render-format``,
 ``-x``/``--use-extension``, ``-E``/``--engine``, ``-s``, ``-e``, ``-a`` and ``-f``/``--render-frame``
 (``1,3,5..8``), ``--`` (the rest is for scripts), and ``-c ewrinkles ARGS...``.
 
@@ -48,6 +49,8 @@ def main(argv):
         if arg in ("-b", "--background", "-y", "--enable-autoexec"):
             pass
         elif arg == "--factory-startup":  # the module loads no user settings or add-ons anyway
+            pass
+        elif arg == "--python-use-system-env":
             pass
         elif arg == "--":
             break

@@ -11,7 +11,8 @@ prints one JSON object on stdout:
 * ``samples``: the time codes at which ``points`` is authored;
 * ``primvars``: the names of the mesh's authored primvars; ``blendShapes``: whether it is bound
   to UsdSkel blend shapes; ``subdivisionScheme``; ``faces``: its face count; ``material``: the
-  path of the material bound to it ("" if none);
+  path of the material bound to it ("" if none); ``surface``: what a ``UsdPreviewSurface``
+  consumer reads from that material (:func:`surface`);
 * ``frames``: for each FRAME, ``points`` (the mesh's own points, a flat list) and ``world``
   (the same points through the prim's local-to-world transform, in the stage's up axis).
 
@@ -21,6 +22,7 @@ the same libraries, which must not meet in one process.
 
 import argparse
 import json
+import os
 import sys
 
 import numpy as np
@@ -37,6 +39,45 @@ def _mesh(stage, path):
     if len(meshes) != 1:
         raise SystemExit(f"expected one mesh prim, found {[str(p.GetPath()) for p in meshes]}")
     return meshes[0]
+
+
+def _source(shader_input):
+    """What feeds a shader input: the feeding shader's id and output, and for a texture its
+    file (as written and whether it resolves to a file on disk) and the primvar its ``st``
+    reads; for a primvar reader, its ``varname``."""
+    sources = shader_input.GetConnectedSources()[0]
+    if not sources:
+        return None
+    info = sources[0]
+    shader = UsdShade.Shader(info.source.GetPrim())
+    out = {"id": str(shader.GetIdAttr().Get()), "output": str(info.sourceName)}
+    file_input = shader.GetInput("file")
+    if file_input:
+        asset = file_input.Get()
+        out["file"] = asset.path if asset else ""
+        out["exists"] = bool(asset and asset.resolvedPath and os.path.isfile(asset.resolvedPath))
+    varname = shader.GetInput("varname")
+    if varname:
+        out["varname"] = str(varname.Get())
+    st = shader.GetInput("st")
+    if st:
+        out["st"] = _source(st)
+    return out
+
+
+def surface(material):
+    """{input: {"value": ..., "from": _source}} of the material's UsdPreviewSurface."""
+    if not material:
+        return {}
+    shader = material.ComputeSurfaceSource()[0]
+    if not shader:
+        return {}
+    out = {"id": str(shader.GetIdAttr().Get())}
+    for inp in shader.GetInputs():
+        value = inp.Get()
+        out[inp.GetBaseName()] = {"value": list(value) if hasattr(value, "__len__") else value,
+                                  "from": _source(inp)}
+    return out
 
 
 def read(filepath, frames, prim_path=None):
@@ -60,6 +101,7 @@ def read(filepath, frames, prim_path=None):
         "subdivisionScheme": str(mesh.GetSubdivisionSchemeAttr().Get()),
         "faces": len(mesh.GetFaceVertexCountsAttr().Get() or ()),
         "material": str(material.GetPath()) if material else "",
+        "surface": surface(material),
         "frames": {},
     }
     for frame in frames:

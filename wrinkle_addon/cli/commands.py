@@ -29,22 +29,23 @@ def say(line):
 
 
 def _open(blend):
-    path = Path(blend).expanduser().resolve()
-    if not path.is_file():
-        raise UsageError(f"cannot read {blend}: no such file")
+    path = files.argument_path(blend, "the shot")
+    if not os.path.isfile(path):
+        raise UsageError(f"cannot read {files.shown(blend)}: no such file")
     if not os.access(path, os.R_OK):
-        raise UsageError(f"cannot read {blend}: permission denied")
+        raise UsageError(f"cannot read {files.shown(blend)}: permission denied")
     try:
         bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
     except RuntimeError as exc:
-        raise UsageError(f"cannot open {blend}: {str(exc).removeprefix('Error: ').strip()}") from None
+        raise UsageError(f"cannot open {files.shown(blend)}: {_op_message(exc)}") from None
     return path
 
 
 def faces(scene):
     """The objects of ``scene`` that a wrinkle source works on (or with wrinkles on)."""
     return [ob for ob in scene.objects if ob.type == "MESH" and (
-        ob.ewrinkles_face.enabled or any(s.active(ob) for s in registry.sources()))]
+        ob.ewrinkles_face.enabled or any(s.active(ob) or s.bakes(ob) or s.has_bake(ob)
+                                         for s in registry.sources()))]
 
 
 def _frames(ns, scene):
@@ -63,10 +64,13 @@ def apply_look(scene, ns):
     if ns.engine:
         scene.render.engine = _engine(ns.engine)
     if ns.samples:
-        if scene.render.engine == "CYCLES":
-            scene.cycles.samples = ns.samples
-        else:
-            scene.eevee.taa_render_samples = ns.samples
+        cycles = scene.render.engine == "CYCLES"
+        settings, prop = (scene.cycles, "samples") if cycles else (scene.eevee, "taa_render_samples")
+        most = settings.bl_rna.properties[prop].hard_max
+        if ns.samples > most:
+            raise UsageError(f"--samples {ns.samples} is more than {'Cycles' if cycles else 'EEVEE'} allows: "
+                             f"give 1 to {most}")
+        setattr(settings, prop, ns.samples)
     if ns.resolution:
         scene.render.resolution_x, scene.render.resolution_y = ns.resolution
         scene.render.resolution_percentage = 100
@@ -103,6 +107,9 @@ class _Stop:
         return False
 
 
+_TMP_PREFIX = ".ewrinkles-"  # the temporary folder of the frames: a prefix and 8 random characters
+
+
 def _render_one(scene, f, final, tmpdir):
     """Render frame ``f`` as Blender's own ``-f`` does (an animation render of one frame)
     into ``tmpdir``, then move it to ``final``: a frame file is whole or absent."""
@@ -135,12 +142,19 @@ def _render(ns, emit):
         raise UsageError(f"{path.name} renders to a movie ({scene.render.image_settings.file_format}); "
                          "ewrinkles render writes one image per frame: choose an image format in "
                          "Output Properties > Output, then encode the frames")
-    out = files.writable_folder(ns.out)
-    apply_look(scene, ns)
+    out = files.argument_path(ns.out, "--out", path.parent)
+    files.not_a_file("--out", ns.out, out, "the frames")
+    # the longest path Blender gets: a frame in the temporary folder (_render_frames)
+    name = f"frame_{max(frame_list):04d}{scene.render.file_extension}"
+    files.fits("--out", ns.out, out, out / (_TMP_PREFIX + "x" * 8) / name)
+    apply_look(scene, ns)  # in memory; its refusals come before anything is written
+    out = files.writable_folder(out)
     scene.render.use_overwrite, scene.render.use_placeholder = True, False  # frames go to a temp folder
     scene.render.filepath = str(out / "frame_####")
     finals = {f: Path(scene.render.frame_path(frame=f)) for f in frame_list}
-    todo = [f for f in frame_list if not (ns.resume and finals[f].is_file() and files.complete(finals[f]))]
+    size = files.render_size(scene)  # a kept frame is whole and of the size this render writes
+    todo = [f for f in frame_list
+            if not (ns.resume and finals[f].is_file() and files.complete(finals[f], size))]
     if len(todo) < len(frame_list):
         say(f"--resume: {len(frame_list) - len(todo)} of {len(frame_list)} frames already done, skipped")
     return _render_frames(scene, ns, frame_list, todo, finals, out, emit)
@@ -182,7 +196,7 @@ class _Results:
 def _render_frames(scene, ns, frame_list, todo, finals, out, emit):
     started = time.perf_counter()
     done = 0
-    with _Stop() as stop, tempfile.TemporaryDirectory(dir=out, prefix=".ewrinkles-") as tmpdir:
+    with _Stop() as stop, tempfile.TemporaryDirectory(dir=out, prefix=_TMP_PREFIX) as tmpdir:
         for i, f in enumerate(todo, 1):
             frame.stage_seconds[0] = 0.0
             t0 = time.perf_counter()
@@ -223,17 +237,32 @@ def bake(ns):
         raise UsageError(f"{path.name} has no face with wrinkles or wrinkle maps to bake")
     frame_list, text = _frames(ns, scene)
     start, end = cli_args.contiguous(frame_list, text)
-    target = (Path(ns.save_as).expanduser().resolve() if ns.save_as
-              else path.with_name(f"{path.stem}_farm.blend"))
+    option, given = ("--save-as", ns.save_as) if ns.save_as else ("the shot", ns.blend)
+    if ns.save_as:
+        target = files.argument_path(ns.save_as, option, path.parent)
+        files.not_a_folder(option, given, target, f"{path.stem}_farm.blend")
+    else:
+        target = path.with_name(f"{path.stem}_farm.blend")
     if target == path:
-        raise UsageError(f"--save-as {ns.save_as} is the shot itself: the baked file must be another file, "
-                         "so that the live shot is kept")
-    files.writable_folder(target.parent)
+        raise UsageError(f"--save-as {files.shown(ns.save_as)} is the shot itself: the baked file must be "
+                         "another file, so that the live shot is kept")
+    # Blender saves through FILE@, and the bake writes its caches in wrinkle_bake/ beside
+    prefix, suffix = f".{target.stem}.", ".partial.blend"
+    files.fits(option, given, target, f"{target.parent / (prefix + 'x' * 8 + suffix)}@",
+               *(target.parent / farm_bake.default_path(ob).removeprefix("//") for ob in found))
     apply_look(scene, ns)
+    files.writable_folder(target.parent)
     # The session moves to a copy in the target's folder first, so that the bake's files
     # (written next to the .blend: //wrinkle_bake/) land beside the baked file, in the folder
-    # a farm's workers read; the shot itself is never written.
-    partial = target.with_name(f".{target.stem}.partial.blend")
+    # a farm's workers read; the shot itself is never written.  The copy has a name of its
+    # own (made here, so no other file is ever replaced or removed), hidden beside the target.
+    try:
+        handle, name = tempfile.mkstemp(dir=target.parent, prefix=prefix, suffix=suffix)
+    except OSError as exc:
+        raise UsageError(f"cannot write beside {option} {files.shown(str(target))}: "
+                         f"{exc.strerror or exc}") from None
+    os.close(handle)
+    partial = Path(name)
     prefs = bpy.context.preferences.filepaths
     versions, prefs.save_version = prefs.save_version, 0  # no .blend1 beside the farm file
     try:
@@ -257,9 +286,11 @@ def _bake_faces(found, start, end):
         say(f'baking "{ob.name}", frames {start}-{end}')
         try:
             bpy.ops.wrinkle.bake(frame_start=start, frame_end=end)
-        except RuntimeError as exc:  # the operator refused: the same message as in the panel
-            say(f'"{ob.name}": {_op_message(exc)}')
-            return USAGE
+        except RuntimeError as exc:  # the same message as in the panel
+            message = _op_message(exc)
+            say(f'"{ob.name}": {message}')
+            # a bake that began and failed is a failure; one the operator refused, a usage error
+            return FAILED if farm_bake.FAILED_ENDING in message else USAGE
         missing = _unbaked(ob)
         if missing:
             say(f'the bake of "{ob.name}" did not finish ({missing}); nothing was saved')
@@ -347,9 +378,20 @@ def _check(ns, emit):
 
 
 def sheet(ns):
-    folder = Path(ns.folder)
-    if not folder.is_dir():
-        raise UsageError(f"no folder {ns.folder}")
+    folder = files.argument_path(ns.folder, "the folder")
+    if not os.path.isdir(folder):
+        raise UsageError(f"no folder {files.shown(ns.folder)}")
+    option, text = ("--out", ns.out) if ns.out else ("the folder", ns.folder)
+    if ns.out:
+        out = files.argument_path(ns.out, option)
+        files.not_a_folder(option, text, out, "contact_sheet.png")
+    else:
+        out = folder / "contact_sheet.png"
+        if os.path.isdir(out):
+            raise UsageError(f"{files.shown(str(out))}, where the sheet goes by default, is a folder: "
+                             "name the sheet to write with --out")
+    partial = files.sheet_partial(out)
+    files.fits(option, text, out, f"{partial}.partial")  # images.write's own temporary name
     if ns.frames:
         paths = [folder / f"frame_{f:04d}.png" for f in cli_args.frames(ns.frames)]
         missing = [p.name for p in paths if not files.complete(p)]
@@ -358,7 +400,6 @@ def sheet(ns):
             return FAILED
     else:
         paths = sorted(folder.glob("frame_[0-9]*.png"))
-    out = Path(ns.out) if ns.out else folder / "contact_sheet.png"
     files.writable_folder(out.parent)
     files.contact_sheet(paths, out, ns.width)
     say(f"contact sheet of {len(paths)} frames: {out}")
@@ -389,7 +430,16 @@ def _export(ns, emit):
         raise UsageError(f"{path.name} has {len(found)} faces ({names}): pick one with --face")
     face = found[0]
     start, end = cli_args.contiguous(*_frames(ns, scene))
-    out = str(Path(ns.out).expanduser().resolve())
+    out = files.argument_path(ns.out, "--out", path.parent)
+    if ns.format == "package":  # a folder of wrinkles.json and the images, each written as NAME.partial first
+        files.not_a_file("--out", ns.out, out, "the package (wrinkles.json and its images)")
+        ext = package.IMAGE_FORMATS[ns.image_format][2]
+        names = (package.JSON_NAME, *(stem + ext for _prop, stem in package.SLOTS))
+        files.fits("--out", ns.out, out, *(out / f"{name}.partial" for name in names))
+    else:  # a file, finished as FILE.partial (glb.py)
+        files.not_a_folder("--out", ns.out, out, f"{face.name}.{'glb' if ns.format == 'gltf' else 'usdc'}")
+        files.fits("--out", ns.out, out, f"{out}.partial")
+    out = str(out)
     say(f'exporting "{face.name}", frames {start}-{end}, as {ns.format} to {out}')
     try:
         with Progress(None, f"Export {ns.format} {face.name}", total=end - start + 1, every=10) as progress:
@@ -397,7 +447,7 @@ def _export(ns, emit):
                 report = gltf.export(bpy.context, face, out, start, end, ns.tolerance, ns.max_targets,
                                      ns.targets, lambda f: progress(f * (end - start + 1)))
             elif ns.format == "usd":
-                report = usd.export(bpy.context, face, out, start, end)
+                report = usd.export(bpy.context, face, out, start, end, keep_attributes=ns.keep_attributes)
             else:
                 report = package.write(bpy.context, face, out, start, end, ns.image_format, progress)
     except WrinkleError as exc:

@@ -12,6 +12,8 @@ Nothing of this needs the add-on or Python, so ``blender -b file.blend -a`` on a
 renders it identically.  The cache also holds the face's UV maps, frame by frame: a
 Geometry Nodes tree above the stage leaves its shading values there (the fine wrinkles'
 shrinkage, ``glue.bando.fine_tree``), and the stand-in reads them back with the positions.
+A bake that fails leaves nothing behind: no cache, no folder it made, the scene as it was
+(:class:`Bake`).
 
 The exporter applies the face's whole modifier stack, deformers after the Wrinkles
 modifier included, except a Catmull-Clark Subdivision Surface that is the last modifier
@@ -32,6 +34,11 @@ from .patterns import shedding
 BAKE_SUFFIX = " Baked"
 MARKER = "ewrinkles_stand_in_of"  # on the stand-in: the face whose bake made it
 CACHE_MODIFIER = "Wrinkle Bake"  # the stand-in's Mesh Sequence Cache modifier
+
+
+# How Bake for Farm ends its message when the bake began and failed (a refusal changes
+# nothing and says nothing of undo): what tells the batch command's failure from its refusal
+FAILED_ENDING = "Undo brings the file back as it was"
 
 
 class BakeError(WrinkleError):
@@ -134,38 +141,150 @@ def problem(face, filepath, frame_start, frame_end):
 
 
 def bake(context, face, filepath, frame_start, frame_end):
-    """Export ``face`` over the frame range and switch its renders to the cache."""
-    why = problem(face, filepath, frame_start, frame_end)
-    if why:
-        raise BakeError(why)
-    free(face)
-    path = bpy.path.abspath(filepath)
-    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    """Export ``face`` over the frame range and switch its renders to the cache: a
+    :class:`Bake` run and kept.  When it fails it leaves nothing (:meth:`Bake.run`)."""
+    job = Bake(context, face, filepath, frame_start, frame_end)
+    baked = job.run()
+    job.keep()
+    return baked
+
+
+class Bake:
+    """One geometry bake of ``face``, whole or not at all.
+
+    :meth:`run` writes the cache under a temporary name beside ``filepath``, gives it its
+    name only once it is written (a file already there is set aside) and makes the stand-in.
+    When anything in it fails (the export, the stand-in), it :meth:`undo`-es itself and
+    raises.  Until :meth:`keep`, a caller whose own later step fails (a wrinkle source's
+    bake after the geometry's) can :meth:`undo` it too."""
+
+    def __init__(self, context, face, filepath, frame_start, frame_end):
+        why = problem(face, filepath, frame_start, frame_end)
+        if why:
+            raise BakeError(why)
+        self.context, self.face, self.filepath = context, face, filepath
+        self.frames = frame_start, frame_end
+        self.path = bpy.path.abspath(filepath)
+        folder = os.path.dirname(self.path) or "."
+        name = os.path.basename(self.path)
+        self.partial = os.path.join(folder, f".{name}.partial.abc")
+        self.aside = os.path.join(folder, f".{name}.previous.abc")
+        self.folder, self.made = folder, _missing_folders(folder)
+        self.previous = _cache_path(stand_in(face))  # the stand-in to make again on undo
+        self.hidden = face.hide_render
+        self.set_aside = self.replaced = False
+
+    def run(self):
+        """Bake; returns the stand-in."""
+        try:
+            os.makedirs(self.folder, exist_ok=True)
+            free(self.face)  # the face itself renders while it is exported
+            _export(self.context, self.face, self.partial, *self.frames)
+            if not os.path.exists(self.partial):
+                raise BakeError(f"The Alembic export did not write {self.path}")
+            if os.path.lexists(self.path):
+                os.replace(self.path, self.aside)
+                self.set_aside = True
+            os.replace(self.partial, self.path)
+            self.replaced = True
+            return _stand_in(self.face, self.filepath)
+        except BaseException:
+            self.undo()
+            raise
+
+    def undo(self):
+        """Remove every file and folder the bake made, put back a file it set aside, and the
+        scene as it was: the face's previous stand-in made again from its cache (left
+        untouched), or the face rendered live with its render visibility as it was.  The
+        export itself puts the frame and the selection back."""
+        _remove_file(self.partial)
+        if self.replaced:
+            _remove_file(self.path)
+        if self.set_aside:
+            os.replace(self.aside, self.path)
+        self.set_aside = self.replaced = False
+        for folder in self.made:  # innermost first; only if the bake left them empty
+            try:
+                os.rmdir(folder)
+            except OSError:
+                pass
+        _restore(self.face, self.previous, self.hidden)
+
+    def keep(self):
+        """The bake stays: the file it set aside is removed."""
+        if self.set_aside:
+            _remove_file(self.aside)
+        self.set_aside = False
+
+
+def _export(context, face, path, frame_start, frame_end):
+    """Blender's Alembic exporter on ``face`` alone; the selection and the frame are put back
+    whatever happens."""
     view_layer = context.view_layer
     selected = [ob for ob in context.selected_objects]
     active = view_layer.objects.active
+    frame = context.scene.frame_current
     try:
         for ob in selected:
             ob.select_set(False)
         face.select_set(True)
         view_layer.objects.active = face
-        frame = context.scene.frame_current
         bpy.ops.wm.alembic_export(
             filepath=path, start=frame_start, end=frame_end, selected=True, flatten=True,
             uvs=True, normals=False, vcolors=False, orcos=False, face_sets=False,
             apply_subdiv=False, export_hair=False, export_particles=False,
             export_custom_properties=False, evaluation_mode="RENDER", as_background_job=False,
         )
-        context.scene.frame_set(frame)
     finally:
+        context.scene.frame_set(frame)
         face.select_set(False)
         for ob in selected:
             if ob.name in view_layer.objects:
                 ob.select_set(True)
         view_layer.objects.active = active
-    if not os.path.exists(path):
-        raise BakeError(f"The Alembic export did not write {path}")
-    return _stand_in(face, filepath)
+
+
+def _cache_path(baked):
+    """The cache file (as Blender stores its path) that the stand-in ``baked`` reads, or None."""
+    for mod in baked.modifiers if baked is not None else ():
+        if mod.type == "MESH_SEQUENCE_CACHE" and mod.cache_file is not None:
+            return mod.cache_file.filepath
+    return None
+
+
+def _missing_folders(folder):
+    """The folders that making ``folder`` creates, innermost first."""
+    out = []
+    folder = os.path.abspath(folder)
+    while not os.path.isdir(folder):
+        out.append(folder)
+        parent = os.path.dirname(folder)
+        if parent == folder:
+            break
+        folder = parent
+    return out
+
+
+def _remove_file(path):
+    try:
+        os.remove(path)
+    except FileNotFoundError:
+        pass
+
+
+def _restore(face, previous, hidden):
+    """After a failed or undone bake: the face's previous stand-in made again from its cache
+    ``previous``, or (None) the face rendered live, hidden from renders as it was.  A
+    previous stand-in that cannot be made again (its cache is gone) leaves the face live
+    and rendered."""
+    free(face)
+    if previous is None:
+        face.hide_render = hidden
+        return
+    try:
+        _stand_in(face, previous)
+    except Exception:  # the face renders live; the bake's own error says what went wrong
+        free(face)
 
 
 def _stand_in(face, filepath):

@@ -5,7 +5,7 @@ USD (time-sampled points) and the wrinkle-map package; import a package back."""
 import os
 
 import bpy
-from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from ..glue import faces
 from ..glue.export import gltf, package, usd
@@ -107,6 +107,10 @@ class WRINKLE_OT_export_usd(_FileExport, bpy.types.Operator):
                                 description="Files the browser shows")
     frame_start: _start()
     frame_end: _end()
+    keep_attributes: BoolProperty(name="Keep Wrinkle Attributes", description="Also write the add-on's "
+                                  "own attributes (the wrinkle stage's skin, offsets and frame stamp, the "
+                                  "fine wrinkles' fields), which only Blender reads: about half of the "
+                                  "file", default=False)
 
     poll = face_poll()
 
@@ -115,7 +119,8 @@ class WRINKLE_OT_export_usd(_FileExport, bpy.types.Operator):
         face = _face(context)
         start, end = _range(self, context.scene)
         with Progress(context, f"Export USD {face.name}") as progress:
-            r = usd.export(context, face, self.filepath, start, end, progress)
+            r = usd.export(context, face, self.filepath, start, end, progress,
+                           keep_attributes=self.keep_attributes)
         self.report({"INFO"}, f"{r['frames']} frames of {r['points']} points to {r['file']}")
         return {"FINISHED"}
 

@@ -111,13 +111,15 @@ class WRINKLE_OT_bake(bpy.types.Operator):
             raise bake.BakeError("Nothing was baked: " + "; ".join(problems))
         n = end - start + 1
         done = []
+        job = None
         try:
             with Progress(context, f"Bake for Farm {face.name}", total=(1 + len(baking)) * n,
                           every=25) as progress:
                 if geometry:
                     progress(0, f"frames {start}-{end} to {path}")
                     try:
-                        baked = bake.bake(context, face, path, start, end)
+                        job = bake.Bake(context, face, path, start, end)
+                        baked = job.run()
                     except (RuntimeError, OSError) as exc:
                         raise bake.BakeError(str(exc)) from exc
                     done.append(f'frames {start}-{end} to {path}; "{baked.name}" renders them')
@@ -128,11 +130,16 @@ class WRINKLE_OT_bake(bpy.types.Operator):
                     if line:
                         done.append(line)
         except WrinkleError as exc:
-            # the bake has begun (the previous one is freed): finish all the same, so that what
-            # changed is one undo step that brings the file back as it was
+            # the bake has begun: the geometry's cache is taken back (no file is left behind),
+            # and what else changed is one undo step that brings the file back as it was
+            if job is not None:
+                job.undo()
+                done = [line for line in done if not line.startswith(f"frames {start}-{end} to ")]
             made = f"Baked only {'; '.join(done)}" if done else "Nothing was baked"
-            self.report({"ERROR"}, f"{exc}. {made}: Undo brings the file back as it was")
+            self.report({"ERROR"}, f"{exc}. {made}: {bake.FAILED_ENDING}")
             return {"FINISHED"}
+        if job is not None:
+            job.keep()
         self.report({"INFO"}, "Baked " + "; ".join(done) if done else
                     "Nothing needed baking: the wrinkle maps' drivers need no add-on")
         return {"FINISHED"}

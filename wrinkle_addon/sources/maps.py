@@ -5,7 +5,10 @@ The maps themselves are shaded by the *Wrinkle Map Blend* group; what runs per f
 the tension-driven mode, whose 8 zone weights are the skin's measured compression in each
 zone (``core.maps.jimenez.zone_tension``, folded onto the edges once per face:
 ``core.maps.jimenez.tension_plan``).  Its farm bake keys the weights that a farm
-without the add-on cannot compute."""
+without the add-on cannot compute: the tension-driven zones and the expressions driven by a
+muscle's contraction.  Maps driven by shape keys, ordinary properties or Manual values alone
+have nothing to bake (``bakes`` is False): their one-variable drivers evaluate on a farm
+with no add-on."""
 
 from ..core.combine import Contribution
 from ..core.maps import jimenez
@@ -63,7 +66,9 @@ class MapSource(WrinkleSource):
         return f"{k} wrinkle-map weight channel(s) keyed" if k else ""
 
     def bakes(self, face):
-        return face.ewrinkles_face.maps.weights_group is not None
+        # a bake of values that no longer need one (the muscle's row was rebound to a shape
+        # key, say) is something to do too: baking again frees it
+        return material.needs_bake(face) or self.has_bake(face)
 
     def has_bake(self, face):
         return bool(material.baked_paths(face.ewrinkles_face.maps.weights_group))

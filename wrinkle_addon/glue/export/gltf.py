@@ -10,16 +10,22 @@ A temporary copy of the face carries them: the face's mesh and its own shape key
 one shape key per wrinkle target, "Wrinkle 01" ..., and every shape key's value keyed on
 every frame (drivers, muscles and the wrinkles all become plain weight curves).
 Blender's glTF exporter writes that copy: the mesh, its morph targets (with their
-normals, so the wrinkles shade in the engine), the animation of all the weights, and its
-materials.
+normals, so the wrinkles shade in the engine), the animation of all the weights (from
+time 0 on the first frame), and its materials.  The copy's faces of more than four corners
+(a refinement leaves some) are split into triangles, without which the exporter computes
+no tangents for the mesh.  The face's **parts** (``sample.parts``: the eyes, lashes and
+teeth parented to it) go along as copies parented to it, their shape keys keyed on every
+frame to the values their drivers give.
 
-The copy's materials are copies of the face's that carry the wrinkle-map table as a
-custom property, which the exporter writes as the material's ``extras.ewrinkles``: a JSON
-text with the layout of ``wrinkles.json`` (docs/wrinkle_package.md), with glTF image
-names.  The wrinkle maps, masks and base map are image nodes of the material that no BSDF
-input reads; the exporter's "unused textures" option writes them as textures all the
-same (from 8-bit PNG copies: ``_png_copies``).  Blender's importer reads them
-back with its "unused materials" option (the round-trip test does).
+The copy's materials are copies of the face's made plain for engines (``materials``: the
+base normal map or none as the normal, never a wrinkle map) that carry the wrinkle-map
+table as a custom property, which the exporter writes as the material's
+``extras.ewrinkles``: a JSON text with the layout of ``wrinkles.json``
+(docs/wrinkle_package.md), with glTF image names.  The wrinkle maps, masks and base map
+are image nodes of the material; the exporter's "unused textures" option writes those that
+no BSDF input reads as textures all the same (from 16-bit PNG copies, the package's depth:
+``_png_copies``).  Blender's importer reads them back with its "unused materials" option
+(the round-trip test does).
 
 The face's armature and other modifiers are not exported: the targets reproduce the
 wrinkles on the skin of the face's shape keys.
@@ -30,15 +36,17 @@ import json
 import os
 import tempfile
 
+import bmesh
 import bpy
 import numpy as np
 
 from ...core import morphs
 from .. import drivers, frame, images
-from . import glb, package, sample
+from . import glb, materials, package, sample
 
 TARGET_PREFIX = "Wrinkle"
 EXTRAS = "ewrinkles"  # the material's extras key
+PNG_DEPTH = package.IMAGE_FORMATS["PNG"][1]  # the maps at the package's depth: 16 bits
 
 
 def _exporter_options(filepath, frame_start, frame_end):
@@ -62,7 +70,7 @@ def _exporter_options(filepath, frame_start, frame_end):
         "export_animation_mode": "ACTIONS",
         "export_frame_range": True,
         "export_force_sampling": True,
-        "export_anim_slide_to_zero": False,
+        "export_anim_slide_to_zero": True,  # the first frame at time 0
         "export_optimize_animation_size": False,
         "export_try_sparse_sk": False,  # dense targets: their normals are refit in place (glb.py)
         "export_try_omit_sparse_sk": False,
@@ -107,10 +115,11 @@ def _take_name(original, copy, renamed):
 
 
 def _png_copies(face, folder, renamed, made):
-    """8-bit PNG copies of the face's maps, masks and base map, written by ``images.write``
-    (straight alpha: the fourth zone of a mask survives) and packed; the exporter embeds a
-    packed PNG's bytes as they are (Blender's own PNG writer would divide a mask's colour
-    by its alpha).  Returns {original: copy}."""
+    """16-bit PNG copies of the face's maps, masks and base map, as the package writes them
+    (``package.IMAGE_FORMATS``), written by ``images.write`` (straight alpha: the fourth
+    zone of a mask survives) and packed; the exporter embeds a packed PNG's bytes as they
+    are (Blender's own PNG writer would divide a mask's colour by its alpha).  Returns
+    {original: copy}."""
     maps = face.ewrinkles_face.maps
     out = {}
     for prop, stem in package.SLOTS:
@@ -119,7 +128,7 @@ def _png_copies(face, folder, renamed, made):
             continue
         # the exporter names a packed image after its file: the image's own name, in a folder of its own
         file_name = img.name.replace("/", "_").replace("\\", "_") + ".png"
-        path = images.write(images.read(img), os.path.join(folder, stem, file_name), "PNG", "8",
+        path = images.write(images.read(img), os.path.join(folder, stem, file_name), "PNG", PNG_DEPTH,
                             name=img.name)
         copy = bpy.data.images.load(path, check_existing=False)
         made.append(copy)
@@ -130,25 +139,32 @@ def _png_copies(face, folder, renamed, made):
     return out
 
 
-def _material_copies(face, extras, renamed, replace):
-    """Copies of the face's materials under their own names, carrying ``extras``, their
-    image nodes reading the images of ``replace``; the originals are renamed meanwhile."""
-    out = []
-    for slot in face.material_slots:
+def _dress(source, copy, extras, renamed, replace, made):
+    """Give each material slot of ``copy`` (a copy of ``source``) the material it exports
+    with: a copy of ``source``'s (under its name, the original renamed meanwhile) made plain
+    for engines (``materials``: the base normal map or none as the normal, no procedural
+    chains), carrying ``extras``, its image nodes reading the images of ``replace``; or, for
+    a material that needs none of this, the material itself.  Slot by slot, so every face
+    keeps its material index (``Mesh.materials.clear`` would reset them all to 0)."""
+    for slot, target in zip(source.material_slots, copy.material_slots):
+        target.link = slot.link
         mat = slot.material
-        if mat is None:
+        if mat is None or mat in replace:  # a material the face and a part share: copied once
+            target.material = replace.get(mat) if mat is not None else None
             continue
-        if extras is None:
-            out.append(mat)
+        if extras is None and not materials.needs_copy(mat):
+            target.material = mat
             continue
-        copy = mat.copy()
-        copy[EXTRAS] = json.dumps(extras, separators=(",", ":"))  # an ID property holds no list of str
-        for node in copy.node_tree.nodes if copy.node_tree is not None else ():
+        new = materials.plain_copy(mat, source)
+        made.append(new)
+        if extras is not None:
+            new[EXTRAS] = json.dumps(extras, separators=(",", ":"))  # an ID property holds no list of str
+        for node in new.node_tree.nodes if new.node_tree is not None else ():
             if node.type == "TEX_IMAGE" and node.image in replace:
                 node.image = replace[node.image]
-        _take_name(mat, copy, renamed)
-        out.append(copy)
-    return out
+        _take_name(mat, new, renamed)
+        replace[mat] = new
+        target.material = new
 
 
 def _image_names(face):
@@ -159,22 +175,51 @@ def _image_names(face):
     return {prop: img.name for (prop, _stem), img in zip(package.SLOTS, slots) if img is not None}
 
 
-@contextlib.contextmanager
-def _export_copy(context, face, fit, frames, folder):
-    """A temporary copy of ``face`` with its wrinkle targets and every weight keyed,
-    under the face's own names; everything is removed and renamed back on exit."""
-    scene = context.scene
-    name, mesh_name = face.name, face.data.name
-    made_materials, made_images, renamed, ob, me = [], [], [], None, None
+def _triangulate_ngons(me):
+    """Split the faces of more than four corners (a refinement leaves some) into triangles,
+    shape keys and all: the exporter computes tangents only on triangles and quads, and
+    drops them for the whole mesh otherwise.  No vertex is added, moved or renumbered."""
+    sizes = np.empty(len(me.polygons), np.int32)
+    me.polygons.foreach_get("loop_total", sizes)
+    if not np.any(sizes > 4):
+        return
+    bm = bmesh.new()
     try:
-        me = face.data.copy()
-        if me.shape_keys is not None:
-            me.shape_keys.animation_data_clear()  # drivers and keys of the face: keyed anew
+        bm.from_mesh(me)
+        bmesh.ops.triangulate(bm, faces=[f for f in bm.faces if len(f.verts) > 4])
+        bm.to_mesh(me)
+    finally:
+        bm.free()
+
+
+def _copy_object(source, name, scene, strip_attributes=False):
+    """A linked copy of ``source``'s object and mesh (its own shape keys, their animation
+    cleared: keyed anew), at its place."""
+    me = source.data.copy()
+    if me.shape_keys is not None:
+        me.shape_keys.animation_data_clear()  # drivers and keys: keyed anew
+    if strip_attributes:
         for attr in [a.name for a in me.attributes if a.name.startswith("wrinkle_")]:
             me.attributes.remove(me.attributes[attr])
-        ob = bpy.data.objects.new(name + ".export", me)
-        scene.collection.objects.link(ob)
-        ob.matrix_world = face.matrix_world
+    ob = bpy.data.objects.new(name, me)
+    scene.collection.objects.link(ob)
+    ob.matrix_world = source.matrix_world
+    return ob
+
+
+@contextlib.contextmanager
+def _export_copy(context, face, fit, frames, folder):
+    """A temporary copy of ``face`` with its wrinkle targets and every weight keyed, and of
+    each of its parts (``frames.parts``) parented to it with their keys keyed, under their
+    own names; everything is removed and renamed back on exit.  Yields (face copy, parts'
+    copies)."""
+    scene = context.scene
+    made_objects, made_materials, made_images, renamed = [], [], [], []
+    try:
+        ob = _copy_object(face, face.name + ".export", scene, strip_attributes=True)
+        made_objects.append(ob)
+        me = ob.data
+        _triangulate_ngons(me)
         if me.shape_keys is None:
             ob.shape_key_add(name="Basis", from_mix=False)
         key = me.shape_keys
@@ -190,7 +235,7 @@ def _export_copy(context, face, fit, frames, folder):
         values = np.concatenate([frames.key_values, fit.weights], axis=1) if fit.count else frames.key_values
         _key_all(key, names, values, frames.frames)
         if key.animation_data is not None and key.animation_data.action is not None:
-            key.animation_data.action.name = f"{name} Wrinkles"  # the glTF animation's name
+            key.animation_data.action.name = f"{face.name} Wrinkles"  # the glTF animation's name
         image_names = _image_names(face)
         extras = None
         if image_names is not None:
@@ -199,27 +244,36 @@ def _export_copy(context, face, fit, frames, folder):
                       "animation": {"frames": list(frames.frames),
                                     "zone_weights": np.round(frames.zone_weights, 6).tolist()}}
         replace = _png_copies(face, folder, renamed, made_images) if extras is not None else {}
-        made_materials = _material_copies(face, extras, renamed, replace)
-        me.materials.clear()
-        for mat in made_materials:
-            me.materials.append(mat)
-        # the exporter names the node and the mesh after the face itself
-        face.name, face.data.name = name + ".source", mesh_name + ".source"
-        ob.name, me.name = name, mesh_name
-        yield ob
+        _dress(face, ob, extras, renamed, replace, made_materials)
+        copies = []
+        for part, part_names, part_values in frames.parts:
+            copy = _copy_object(part, part.name + ".export", scene)
+            made_objects.append(copy)
+            copy.parent = ob
+            copy.matrix_parent_inverse = part.matrix_parent_inverse
+            copy.matrix_world = part.matrix_world
+            if copy.data.shape_keys is not None and part_names:
+                _key_all(copy.data.shape_keys, part_names, part_values, frames.frames)
+                copy.data.shape_keys.animation_data.action.name = f"{part.name} Keys"
+            _dress(part, copy, None, renamed, replace, made_materials)
+            copies.append((part, copy))
+        # the exporter names the nodes and the meshes after the objects themselves
+        for original, copy in [(face, ob), *copies]:
+            _take_name(original, copy, renamed)
+            _take_name(original.data, copy.data, renamed)
+        yield ob, [copy for _part, copy in copies]
     finally:
-        if ob is not None:
-            bpy.data.objects.remove(ob)
-        if me is not None:
-            bpy.data.meshes.remove(me)  # and its shape keys
+        for made in made_objects:
+            mesh = made.data
+            bpy.data.objects.remove(made)
+            bpy.data.meshes.remove(mesh)  # and its shape keys
         for mat in made_materials:
-            if EXTRAS in mat and mat.users == 0:
+            if mat.users == 0:
                 bpy.data.materials.remove(mat)
         for img in made_images:
             bpy.data.images.remove(img)
         for original, original_name in reversed(renamed):
             original.name = original_name
-        face.name, face.data.name = name, mesh_name
 
 
 def _angles(normals, live):
@@ -277,7 +331,8 @@ def export(context, face, filepath, frame_start, frame_end, tolerance_mm=0.05, m
     tolerance.  Raises ExportError (sample.py) for what the user must fix."""
     path = sample.check_path(filepath, (".glb", ".gltf"))
     sample.check_range(frame_start, frame_end)
-    frames = sample.read(context, face, frame_start, frame_end, maps=True, normals=True,
+    parts = sample.parts(face, context.view_layer)
+    frames = sample.read(context, face, frame_start, frame_end, maps=True, normals=True, with_parts=parts,
                          progress=(lambda i, n: progress(0.8 * i / n)) if progress else None)
     mm = 1000.0 * sample.metres_per_unit(face, context.scene)
     try:
@@ -285,8 +340,8 @@ def export(context, face, filepath, frame_start, frame_end, tolerance_mm=0.05, m
     except ValueError as exc:
         raise sample.ExportError(str(exc)) from None
     with tempfile.TemporaryDirectory(prefix="ewrinkles-gltf-") as folder, \
-            _export_copy(context, face, fit, frames, folder) as ob, \
-            sample.exporting(context, ob, frame_start, frame_end), frame.suspended():
+            _export_copy(context, face, fit, frames, folder) as (ob, others), \
+            sample.exporting(context, ob, frame_start, frame_end, others), frame.suspended():
         try:
             bpy.ops.export_scene.gltf(**_exporter_options(path, frame_start, frame_end))
         except RuntimeError as exc:
@@ -300,4 +355,5 @@ def export(context, face, filepath, frame_start, frame_end, tolerance_mm=0.05, m
             "max_error_mm": fit.max_error * mm, "mean_error_mm": fit.mean_error * mm,
             "within_tolerance": fit.within_tolerance, "tolerance_mm": tolerance_mm,
             "frame_max_error_mm": (fit.frame_max_error * mm).round(5).tolist(),
-            "textures": sorted(set((_image_names(face) or {}).values())), **shading}
+            "textures": sorted(set((_image_names(face) or {}).values())),
+            "parts": [p.name for p in parts], **shading}

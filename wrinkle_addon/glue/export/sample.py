@@ -30,6 +30,18 @@ class Frames:
     key_values: np.ndarray = None  # (F, S) float32: their evaluated values
     zone_weights: np.ndarray = None  # (F, K, 8) float32, or None without wrinkle maps
     normals: np.ndarray = None  # (F, V, 3) float32: the wrinkled face's vertex normals, if asked
+    parts: list = field(default_factory=list)  # [(object, key names, (F, S) values)] of the parts asked for
+
+
+def parts(face, view_layer):
+    """The face's **parts**: the meshes parented to it that render with it (eyes, lashes,
+    teeth), which the exports carry along.  Not its muscles, nor the Geometry Nodes objects
+    the add-on makes (tears), whose geometry is a modifier's, nor what is hidden in renders
+    or not in ``view_layer``."""
+    return [ob for ob in face.children
+            if ob.type == "MESH" and not ob.ewrinkles_muscle.is_muscle and not ob.hide_render
+            and view_layer.objects.get(ob.name) == ob and len(ob.data.polygons)
+            and not any(m.type == "NODES" for m in ob.modifiers)]
 
 
 def check_range(frame_start, frame_end):
@@ -58,10 +70,11 @@ def check_path(filepath, extensions):
 
 
 @contextlib.contextmanager
-def exporting(context, ob, frame_start, frame_end):
-    """``ob`` the only selected object and the active one, the scene's range the export's
-    (Blender's exporters take both from the scene); the selection, the active object, the
-    range and the current frame are put back afterwards, also when the export fails."""
+def exporting(context, ob, frame_start, frame_end, others=()):
+    """``ob`` (and ``others``) the only selected objects, ``ob`` the active one, the scene's
+    range the export's (Blender's exporters take both from the scene); the selection, the
+    active object, the range and the current frame are put back afterwards, also when the
+    export fails."""
     scene, view_layer = context.scene, context.view_layer
     selected = [o for o in view_layer.objects if o.select_get()]
     active = view_layer.objects.active
@@ -69,7 +82,8 @@ def exporting(context, ob, frame_start, frame_end):
     try:
         for o in selected:
             o.select_set(False)
-        ob.select_set(True)
+        for o in (ob, *others):
+            o.select_set(True)
         view_layer.objects.active = ob
         # start first: a start after the old end moves the end along, which the next line sets
         scene.frame_start, scene.frame_end = frame_start, frame_end
@@ -77,8 +91,9 @@ def exporting(context, ob, frame_start, frame_end):
     finally:
         scene.frame_start, scene.frame_end = saved[:2]
         scene.frame_set(saved[2], subframe=saved[3])
-        if ob.name in view_layer.objects:
-            ob.select_set(False)
+        for o in (ob, *others):
+            if o.name in view_layer.objects:
+                o.select_set(False)
         for o in selected:
             if o.name in view_layer.objects:
                 o.select_set(True)
@@ -112,10 +127,10 @@ def _vertex_normals(face, out):
         out[:] = full[: len(out)]
 
 
-def read(context, face, frame_start, frame_end, maps=False, normals=False, progress=None):
+def read(context, face, frame_start, frame_end, maps=False, normals=False, progress=None, with_parts=()):
     """Step ``context.scene`` through the range and read every frame of ``face`` (with
-    ``normals``, also its vertex normals); the scene is put back on its frame afterwards.
-    Raises ExportError."""
+    ``normals``, also its vertex normals, and the shape-key values of ``with_parts``); the
+    scene is put back on its frame afterwards.  Raises ExportError."""
     check_range(frame_start, frame_end)
     scene = context.scene
     has_maps = maps and face.ewrinkles_face.maps.weights_group is not None
@@ -133,6 +148,9 @@ def read(context, face, frame_start, frame_end, maps=False, normals=False, progr
     if has_maps:
         zones = np.zeros((len(frames), wrinklemaps.n_maps(face.ewrinkles_face.maps), 8), np.float32)
     shading = np.zeros((len(frames), n, 3), np.float32) if normals else None
+    part_keys = [(ob, [kb.name for kb in ob.data.shape_keys.key_blocks[1:]] if ob.data.shape_keys else [])
+                 for ob in with_parts]
+    part_values = [np.zeros((len(frames), len(names)), np.float32) for _ob, names in part_keys]
     current = (scene.frame_current, scene.frame_subframe)
     try:
         for i, f in enumerate(frames):
@@ -144,6 +162,8 @@ def read(context, face, frame_start, frame_end, maps=False, normals=False, progr
                     raise ExportError(f'"{face.name}" on frame {f}: {why}')
                 meshio.read_vectors(me, stage.OFFSET_ATTR, offsets[i])
             values[i] = _key_values(face, depsgraph)
+            for (ob, _names), out in zip(part_keys, part_values):
+                out[i] = _key_values(ob, depsgraph)
             if shading is not None:
                 _vertex_normals(face, shading[i])
             if zones is not None:
@@ -154,4 +174,5 @@ def read(context, face, frame_start, frame_end, maps=False, normals=False, progr
         scene.frame_set(current[0], subframe=current[1])
     if not np.all(np.isfinite(offsets)):
         raise ExportError(f'"{face.name}" has wrinkle offsets that are not finite numbers')
-    return Frames(frames, offsets, names, values, zones, shading)
+    return Frames(frames, offsets, names, values, zones, shading,
+                  [(ob, names_, v) for (ob, names_), v in zip(part_keys, part_values)])

@@ -12,9 +12,24 @@ exporter writes the shape keys as blend shapes of the mesh *before* its modifier
 time samples of the points, so the Geometry Nodes stage - the wrinkles - is lost (measured
 on bpy 4.5 and 5.2); ``export_armatures`` likewise writes a mesh with an Armature modifier
 as a skinned mesh.  So both are off, and the file holds the face as it renders, frame by
-frame, whatever deforms it.  The exporter also writes every generic point attribute as a
-primvar, ours included (``wrinkle_skin``, ``wrinkle_offset``, ``wrinkle_frame``); no option
-leaves them out.
+frame, whatever deforms it.
+
+The exporter writes every generic attribute of the evaluated mesh as a primvar, and no
+option leaves one out.  The add-on's own (``wrinkle_*``: the stage's skin, offsets, pull
+and frame stamp; ``ewrinkles_*``: the fine wrinkles' fields and shrinkage, the sample
+skin's rest positions and regions) are of no use outside Blender and are about half of
+the file, some time-sampled on every frame (the sample head over 48 frames: 213 MB with
+them, 109 MB without).  So by default the export puts a temporary
+Geometry Nodes modifier at the end of the face's stack (above a final Subdivision Surface,
+which stays the mesh's scheme) that removes them from what the exporter reads, and takes it
+away afterwards; ``keep_attributes`` writes them all.
+
+The materials are written as a ``UsdPreviewSurface`` consumer reads them: the exporter
+reads temporary plain copies (``materials``: the base normal map or none as the normal, no
+procedural chains such as the sample skin's colour from its rest positions, a Principled
+BSDF for the corneas' film), under the materials' own names, and writes the textures they
+read into ``textures/`` beside the file (its ``NEW`` mode); the UV reader asks for the UV
+map the mesh is written with (``st``, the exporter's name for the render-active UV map).
 
 The file keeps Blender's axes and units (Z up, 1 metre per unit: the stage's ``upAxis``
 and ``metersPerUnit`` say so); the points are the face's own (object space), under an
@@ -27,6 +42,7 @@ RENDER depsgraph leaves out (disabled in renders, itself or through its collecti
 a face hidden in the viewport cannot be selected: :func:`problem` refuses both.
 """
 
+import contextlib
 import os
 import time
 
@@ -35,10 +51,12 @@ import bpy
 from .. import faces, frame, stage, status
 from ..errors import WrinkleError
 from ..progress import Progress
-from . import sample
+from . import materials, sample
 
 EXTENSIONS = (".usd", ".usda", ".usdc", ".usdz")
 _NEEDED = ("filepath", "selected_objects_only", "export_animation", "evaluation_mode")
+INTERNAL_PREFIXES = ("wrinkle_", "ewrinkles_")  # the add-on's attributes (module doc)
+STRIP_NAME = "Export: Leave Out Wrinkle Attributes"  # the temporary modifier and its group
 
 
 class USDExportError(WrinkleError):
@@ -60,7 +78,13 @@ def options(filepath):
         "export_armatures": False,
         "export_uvmaps": True,
         "export_normals": True,
-        "export_materials": True,  # the exporter's default; textures as it does by default
+        "export_materials": True,  # plain copies of the face's materials (module doc)
+        "generate_preview_surface": True,
+        "export_textures_mode": "NEW",  # the textures the materials read, into textures/ beside the file
+        "export_textures": True,  # 4.x's older name for writing them
+        "overwrite_textures": True,
+        "relative_paths": True,
+        "rename_uvmaps": True,  # the render-active UV map as "st", USD's convention
         "export_subdivision": "BEST_MATCH",
         "export_hair": False,
         "export_custom_properties": False,  # our property groups are no use outside Blender
@@ -193,9 +217,10 @@ class _Watch:
             print(f"Expression Wrinkles: USD export: {exc!r}")
 
 
-def export(context, face, filepath, frame_start, frame_end, progress=None):
+def export(context, face, filepath, frame_start, frame_end, progress=None, keep_attributes=False):
     """Export ``face`` alone, animated over ``frame_start``..``frame_end``, to the USD file
-    ``filepath`` (a ``//`` path is relative to the .blend).  ``progress(fraction, message)``
+    ``filepath`` (a ``//`` path is relative to the .blend), without the add-on's own
+    attributes unless ``keep_attributes`` (module doc).  ``progress(fraction, message)``
     is called once per exported frame, as a ``glue.progress.Progress`` is (default: one of
     those, with a console line every 25 frames in background mode).
 
@@ -214,12 +239,78 @@ def export(context, face, filepath, frame_start, frame_end, progress=None):
     if progress is None:
         with Progress(context, f"Export USD {face.name}", total=n, every=25) as bar:
             return _export(context, face, path, kwargs, frame_start, frame_end,
-                           lambda done, current: bar(done, f"frame {current}"))
+                           lambda done, current: bar(done, f"frame {current}"), keep_attributes)
     return _export(context, face, path, kwargs, frame_start, frame_end,
-                   lambda done, current: progress(done / n, f"frame {current}"))
+                   lambda done, current: progress(done / n, f"frame {current}"), keep_attributes)
 
 
-def _export(context, face, path, kwargs, frame_start, frame_end, progress):
+def _internal_names(context, face):
+    """The add-on's attributes on the face as the exporter will read it (evaluated)."""
+    ev = face.evaluated_get(context.evaluated_depsgraph_get())
+    return sorted(a.name for a in ev.data.attributes if a.name.startswith(INTERNAL_PREFIXES))
+
+
+@contextlib.contextmanager
+def _without_attributes(context, face):
+    """A temporary modifier that removes the add-on's attributes (module doc), above a
+    final Subdivision Surface; removed on exit with its group."""
+    names = _internal_names(context, face)
+    if not names:
+        yield
+        return
+    ng = bpy.data.node_groups.new(STRIP_NAME, "GeometryNodeTree")
+    mod = None
+    try:
+        ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+        prev = ng.nodes.new("NodeGroupInput").outputs[0]
+        for name in names:
+            node = ng.nodes.new("GeometryNodeRemoveAttribute")
+            node.inputs["Name"].default_value = name
+            ng.links.new(prev, node.inputs["Geometry"])
+            prev = node.outputs["Geometry"]
+        ng.links.new(prev, ng.nodes.new("NodeGroupOutput").inputs[0])
+        mod = face.modifiers.new(STRIP_NAME, "NODES")
+        mod.node_group = ng
+        mod.show_viewport = False  # only the exporter's RENDER evaluation reads it
+        last = len(face.modifiers) - 1
+        if last >= 1 and face.modifiers[last - 1].type == "SUBSURF":
+            face.modifiers.move(last, last - 1)
+        yield
+    finally:
+        if mod is not None:
+            face.modifiers.remove(mod)
+        bpy.data.node_groups.remove(ng)
+
+
+@contextlib.contextmanager
+def _plain_materials(face):
+    """The face's material slots read plain copies of its materials (``materials``) under
+    their names while the exporter runs; the originals are back on exit."""
+    swapped, copies = [], {}
+    try:
+        for slot in face.material_slots:
+            mat = slot.material
+            if mat is None or not materials.needs_copy(mat):
+                continue
+            if mat not in copies:
+                copies[mat] = materials.plain_copy(mat, face)
+                name = mat.name
+                mat.name = name + ".source"
+                copies[mat].name = name
+            swapped.append((slot, mat))
+            slot.material = copies[mat]
+        yield
+    finally:
+        for slot, mat in swapped:
+            slot.material = mat
+        for mat, copy in copies.items():
+            name = copy.name
+            bpy.data.materials.remove(copy)
+            mat.name = name
+
+
+def _export(context, face, path, kwargs, frame_start, frame_end, progress, keep_attributes=False):
     watch = _Watch(face, range(frame_start, frame_end + 1), progress)
     start = time.perf_counter()
     try:
@@ -228,7 +319,8 @@ def _export(context, face, path, kwargs, frame_start, frame_end, progress):
         raise USDExportError(f'"{path}" cannot be written: {exc.strerror}') from exc
     bpy.app.handlers.frame_change_post.append(watch)
     try:
-        with sample.exporting(context, face, frame_start, frame_end):
+        with sample.exporting(context, face, frame_start, frame_end), _plain_materials(face), \
+                (contextlib.nullcontext() if keep_attributes else _without_attributes(context, face)):
             try:
                 result = bpy.ops.wm.usd_export(**kwargs)
             except RuntimeError as exc:

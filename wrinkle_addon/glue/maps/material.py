@@ -443,18 +443,36 @@ def write_tension(face, values):
 # farm-safe bake of the values that need the add-on
 
 
+def _muscle_rows(face):
+    """The expressions driven by a muscle's contraction (an add-on property, which a farm
+    without the add-on cannot resolve)."""
+    expressions = face.ewrinkles_face.maps.expressions
+    return [e for e, ex in enumerate(expressions) if ex.source == "MUSCLE" and ex.muscle]
+
+
+def needs_bake(face):
+    """Whether the weights group holds a value that only the add-on computes, which
+    :func:`bake_weights` keys: an expression driven by a muscle's contraction, or the
+    tension-driven zones.  False for maps driven by shape keys, ordinary properties or
+    Manual values alone: their drivers have one variable and no Python expression, so a
+    farm evaluates them with no add-on and no bake."""
+    if face.ewrinkles_face.maps.weights_group is None:
+        return False
+    return bool(_muscle_rows(face)) or wants_tension(face)
+
+
 def bake_weights(face, scene, frame_start, frame_end, progress=None):
-    """Key, frame by frame, the weights-group values that only the add-on can compute:
-    expressions driven by a muscle's contraction (an add-on property, which a farm without
-    the add-on cannot resolve) and the tension-driven zones.  Their drivers are removed
-    while baked.  Shape-key and property drivers stay: they need no add-on.  Returns the
-    number of baked channels."""
+    """Key, frame by frame, the weights-group values that only the add-on can compute
+    (:func:`needs_bake`): expressions driven by a muscle's contraction and the
+    tension-driven zones.  Their drivers are removed while baked.  Shape-key and property
+    drivers stay: they need no add-on.  Returns the number of baked channels (0: nothing
+    needed a bake, and a previous bake is freed)."""
     maps = face.ewrinkles_face.maps
     ng = maps.weights_group
     if ng is None:
         return 0
     free_weights(face)
-    muscle_rows = [e for e, ex in enumerate(maps.expressions) if ex.source == "MUSCLE" and ex.muscle]
+    muscle_rows = _muscle_rows(face)
     nodes = [mapgroup.expr_node(e) for e in muscle_rows]
     if wants_tension(face):
         nodes += [mapgroup.tension_node(z) for z in range(N_ZONES)]
@@ -463,15 +481,18 @@ def bake_weights(face, scene, frame_start, frame_end, progress=None):
     frames = range(frame_start, frame_end + 1)
     values = np.zeros((len(frames), len(nodes)), np.float32)
     current = scene.frame_current
-    for i, frame in enumerate(frames):
-        scene.frame_set(frame)  # drivers, animation and our handler (tension) run
-        dg = bpy.context.evaluated_depsgraph_get()
-        for j, e in enumerate(muscle_rows):
-            values[i, j] = maps.expressions[e].muscle.evaluated_get(dg).ewrinkles_muscle.contraction
-        for j in range(len(muscle_rows), len(nodes)):
-            values[i, j] = ng.nodes[nodes[j]].outputs[0].default_value
-        if progress is not None:
-            progress(i + 1, len(frames))
+    try:
+        for i, frame in enumerate(frames):
+            scene.frame_set(frame)  # drivers, animation and our handler (tension) run
+            dg = bpy.context.evaluated_depsgraph_get()
+            for j, e in enumerate(muscle_rows):
+                values[i, j] = maps.expressions[e].muscle.evaluated_get(dg).ewrinkles_muscle.contraction
+            for j in range(len(muscle_rows), len(nodes)):
+                values[i, j] = ng.nodes[nodes[j]].outputs[0].default_value
+            if progress is not None:
+                progress(i + 1, len(frames))
+    finally:  # nothing is keyed yet: a failure leaves the live drivers, on the frame it began on
+        scene.frame_set(current)
     paths = [_value_path(n) for n in nodes]
     for path, node_name, column in zip(paths, nodes, values.T):
         ng.driver_remove(path)
@@ -480,7 +501,7 @@ def bake_weights(face, scene, frame_start, frame_end, progress=None):
             out.default_value = float(v)
             out.keyframe_insert("default_value", frame=frame)
     ng["wrinkle_baked"] = paths
-    scene.frame_set(current)
+    scene.frame_set(current)  # the keyed values, on the frame the bake began on
     return len(paths)
 
 
