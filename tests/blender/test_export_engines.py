@@ -197,8 +197,11 @@ def three_render(glb, out, time, camera, light, size=RENDER_SIZE):
         if not (root / name).exists():
             (root / name).symlink_to(ENGINES / name)
     shutil.copy(glb, root / "face.glb")
-    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(root))
-    handler.log_message = lambda *_a, **_k: None
+    class Quiet(http.server.SimpleHTTPRequestHandler):
+        def log_message(self, *_args):  # no line per request on stderr
+            pass
+
+    handler = functools.partial(Quiet, directory=str(root))
     server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
     threading.Thread(target=server.serve_forever, daemon=True).start()
     try:
@@ -254,8 +257,7 @@ def test_three_renders_the_wrinkles_as_blender_does(tmp_path):
     scenes.add_camera_and_light(scene)
     scenes.setup_cycles(scene, size=RENDER_SIZE, samples=16)
     scene.view_settings.view_transform = "Standard"  # three.js writes plain sRGB
-    scene.world = bpy.data.worlds.new("Black")
-    scene.world.color = (0.0, 0.0, 0.0)
+    scene.world = None  # no light but the sun (5.x's new worlds have a grey Background node)
     scene.render.film_transparent = False
     scene.cycles.filter_width = 0.01  # no pixel filter: three.js draws without antialiasing
     glb = tmp_path / "face.glb"
