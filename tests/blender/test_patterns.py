@@ -434,3 +434,48 @@ def test_a_layer_saved_before_the_shape_existed_keeps_the_papers_pattern():
     paper = heights(face)
     np.testing.assert_allclose(paper, _expected(face, lay, lay.time), atol=2e-7)
     assert np.abs(paper - anatomical).max() > 0.2 * np.abs(anatomical).max() > 0
+
+
+def test_viewport_frames_skip_the_static_key_until_something_it_reads_changes(monkeypatch):
+    """On viewport frames that only animate the skin (a shape key), the layers' settings are
+    read once, for the frame's inputs: the static key is not computed (``unchanged``).  A
+    setting edited, a region's frame moved or a setting animated makes the next frame compute
+    it, and rebuild when it changed."""
+    from wrinkle_addon.glue import registry
+
+    face = _face()
+    lay = _add(face, "CHEEK")
+    scenes.animate_shape_key(face, [(1, 0.0), (20, 1.0)])
+    source = next(s for s in registry.sources() if s.name == "patterns")
+    calls = []
+    real = type(source).static_key
+    monkeypatch.setattr(type(source), "static_key", lambda self, *a: calls.append(1) or real(self, *a))
+    scene = bpy.context.scene
+    scene.frame_set(1)
+    scene.frame_set(2)
+    calls.clear()
+    built = _builds(face)
+    for f in (3, 4, 5):
+        scene.frame_set(f)
+    assert calls == [] and _builds(face) == built  # the shape key alone: nothing to check
+
+    def next_frame():
+        calls.clear()
+        scene.frame_set(scene.frame_current + 1)
+        return bool(calls)
+
+    lay.radius *= 1.2  # an edit tags the face
+    assert next_frame() and _builds(face) != built
+    built = _builds(face)
+    assert not next_frame()
+    lay.frame.location.x += 0.01  # a region around its frame: the frame moved
+    assert next_frame() and _builds(face) != built
+    built = _builds(face)
+    np.testing.assert_allclose(heights(face), _expected(face, lay, lay.time), atol=2e-7)
+    assert not next_frame()
+    # an animated setting tags nothing that says so: the key is computed on every frame
+    lay.keyframe_insert("radius", frame=scene.frame_current)
+    lay.radius *= 1.3
+    lay.keyframe_insert("radius", frame=scene.frame_current + 4)
+    assert next_frame() and next_frame()
+    assert _builds(face) != built  # the radius changed between the keys

@@ -8,8 +8,8 @@ import numpy as np
 
 from ..core import combine
 from ..core.patterns import functions as patterns
+from ..glue import drivers, meshio
 from ..glue import frame as frame_stage
-from ..glue import meshio
 from ..glue.muscles import landmarks
 from ..glue.patterns import layers as glue
 from ..glue.registry import WrinkleSource
@@ -18,14 +18,49 @@ from ..ui import patterns as patterns_ui
 
 
 class _Static:
-    __slots__ = ("plan", "layer_of", "placed", "footprint", "problem")
+    __slots__ = ("plan", "layer_of", "placed", "footprint", "problem", "watched", "present", "known",
+                 "n_layers")
 
-    def __init__(self, layers=(), layer_of=(), placed=(), problem=""):
+    def __init__(self, layers=(), layer_of=(), placed=(), problem="", watched=None, present=None,
+                 known=frozenset(), n_layers=-1):
         self.plan = patterns.plan(layers)
         self.layer_of = tuple(layer_of)  # the stack index of each built layer
         self.placed = tuple(placed)  # where each layer's frame was when it was built
         self.footprint = combine.Footprint(height_verts=self.plan.footprint)
         self.problem = problem
+        # for ``unchanged``: the objects whose moves change the static data (the landmark
+        # empties, the frames of regions around them), the objects that must stay in the
+        # scene (those and every layer's frame; None: always compute the key), the scene's
+        # objects when it was built, the stack's length
+        self.watched, self.present, self.known, self.n_layers = watched, present, known, n_layers
+
+
+_SETTINGS = "ewrinkles_face.patterns"  # the data paths of the layers' settings
+
+
+def _settings_animated(face):
+    """Whether a keyframe or a driver sets any layer setting of ``face``: then Blender does
+    not tag the face when it changes one, and the static key must be computed."""
+    ad = face.animation_data
+    if ad is None:
+        return False
+    return (any(d.data_path.startswith(_SETTINGS) for d in ad.drivers)
+            or any(fc.data_path.startswith(_SETTINGS) for fc in drivers.action_fcurves(face)))
+
+
+def _watch(face, in_scene):
+    """(watched, present) uids for :class:`_Static`: the landmark empties and the frames of
+    regions around them, whose moves change the static data, and those with every other
+    layer's frame in the scene, which must stay there."""
+    watched = {ob.session_uid for ob in landmarks.landmark_objects(face)}
+    present = set(watched)
+    for lay in face.ewrinkles_face.patterns.layers:
+        ob = lay.frame
+        if ob is not None and ob.session_uid in in_scene:
+            present.add(ob.session_uid)
+            if lay.region == "RADIUS":
+                watched.add(ob.session_uid)
+    return frozenset(watched), frozenset(present)
 
 
 def _frame_key(face, lay):
@@ -64,6 +99,17 @@ class PatternSource(WrinkleSource):
     def active(self, face):
         return len(face.ewrinkles_face.patterns.layers) > 0
 
+    def unchanged(self, face, static, changes, in_scene):
+        # an edit of a layer's setting, of its frame's pointer or of the face's transform
+        # tags the face's transform (measured on bpy 4.5 and 5.2); shape keys and bones tag
+        # only its geometry.  A landmark or a region's frame moved is tagged itself.
+        # A new object (a landmark placed, a frame linked back into the scene) is updated too.
+        return (static.present is not None and not changes.get(face.session_uid, (False, False))[0]
+                and static.present <= in_scene and not static.watched & changes.keys()
+                and not (changes.keys() & in_scene) - static.known
+                and len(face.ewrinkles_face.patterns.layers) == static.n_layers
+                and not _settings_animated(face))
+
     def static_key(self, face, in_scene):
         marks = landmarks.landmark_positions(face)
         marks = None if marks is None else tuple(tuple(v) for v in marks.values())
@@ -88,7 +134,9 @@ class PatternSource(WrinkleSource):
                 placed.append(_placement(fw, inverse, lay))
             except glue.PatternError as exc:
                 problems.append(str(exc))
-        return _Static(layers, index, placed, "; ".join(problems))
+        watched, present = _watch(face, in_scene)
+        return _Static(layers, index, placed, "; ".join(problems), watched, present, frozenset(in_scene),
+                       len(face.ewrinkles_face.patterns.layers))
 
     def inputs(self, face, static):
         st = face.ewrinkles_face.patterns.layers
