@@ -53,6 +53,10 @@ Per size, one JSON object:
 ``floors_ms``
     Those floors, each; ``per_repeat``: the blocks' median frames.
 
+``tension_write_ms`` / ``tension_write_v1_ms``
+    Writing one frame's 8 tension-driven zone values into the weights group: as three
+    colours (``nodegroups.set_tension``), and as weights version 1 did, a Value node each
+    (eight sets), side by side in the same group (``Face.tension_writes``).
 ``growth_200k_over_50k``: all's frame_ms at 200k over all's at 50k.  Goal: at most 4.4.
 Output: progress on stderr, one JSON line on stdout::
 
@@ -221,6 +225,44 @@ class Face:
         r["maps"] = tight(src["maps"].contribute, face, statics["maps"], skin, maps_inputs)
         return r
 
+    def tension_writes(self, rounds=5, calls=20):
+        """What writing a frame's 8 tension values into the weights group costs (ms a
+        frame), as the add-on writes them (three colours, ``nodegroups.set_tension``) and
+        as weights version 1 did (a Value node each, eight sets), side by side in the same
+        group and material: ``rounds`` interleaved blocks of ``calls`` frames, each frame's
+        values new, the medians."""
+        ng = self.maps.weights_group
+        legacy = []
+        for z in range(8):
+            node = ng.nodes.new("ShaderNodeValue")
+            node.name = f"v1 Tension {z}"
+            legacy.append(node.outputs[0])
+        from wrinkle_addon.glue.maps import nodegroups
+
+        rng = np.random.default_rng(0)
+        frames = rng.random((2 * calls, 8)).astype(np.float32).tolist()
+
+        def packed(i):
+            nodegroups.set_tension(ng, frames[i % len(frames)])
+
+        def v1(i):
+            for out, v in zip(legacy, frames[i % len(frames)]):
+                if out.default_value != v:
+                    out.default_value = v
+
+        times = {"packed": [], "v1": []}
+        i = 0
+        for rnd in range(rounds):
+            for name, fn in (("packed", packed), ("v1", v1))[:: 1 if rnd % 2 == 0 else -1]:
+                t = time.perf_counter()
+                for _ in range(calls):
+                    fn(i)
+                    i += 1
+                times[name].append((time.perf_counter() - t) / calls)
+        for out in legacy:
+            ng.nodes.remove(out.node)
+        return {"tension_write_ms": fu.ms(times["packed"]), "tension_write_v1_ms": fu.ms(times["v1"])}
+
 
 def run_size(label, target, args):
     import bpy
@@ -242,6 +284,7 @@ def run_size(label, target, args):
         log(f"{label} repeat {rep + 1}/{args.repeats}: "
             + ", ".join(f"{c} {fu.ms(times[c][-1]):.2f}" for c in configs) + " ms")
     floors = f.floors()
+    writes = f.tension_writes()
     med = {c: [fu.ms(block) for block in blocks] for c, blocks in times.items()}
     cost = {c: [a - base for a, base in zip(med[c], med["base"])] for c in configs if c != "base"}
     frame_ms = {c: fu.clean(fu.median_or_none(cost[c])) for c in SOURCES + ("all",)}
@@ -260,7 +303,7 @@ def run_size(label, target, args):
          "floors_ms": fu.clean(dict(floors, bare_stage=fu.median_or_none(cost["floor"]),
                                     fine=fu.median_or_none(gn["fine"]),
                                     tears=fu.median_or_none(gn["tears"]))),
-         "max_offset_mm": fu.clean(peak),
+         "max_offset_mm": fu.clean(peak), **fu.clean(writes),
          "base_frame_ms": fu.clean(fu.median_or_none(med["base"])),
          "per_repeat": fu.clean({"frame_ms": med, "all_floor_ratio": ratios, "playback_ratio": playback,
                                  "floor_playback_ratio": at_floor, "playback_over_floor": over_floor})}

@@ -76,5 +76,8 @@ class MapSource(WrinkleSource):
     def free_bake(self, face):
         material.free_weights(face)
 
+    def upgrade(self, face):
+        return material.upgrade(face)
+
     def draw(self, layout, context, face):
         maps_ui.draw(layout, context, face)

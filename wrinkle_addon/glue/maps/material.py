@@ -84,7 +84,7 @@ def zone_weights(face):
         return float(node.outputs[0].default_value) if node is not None else 0.0
 
     values = np.array([value(mapgroup.expr_node(e)) for e in range(len(maps.expressions))], np.float32)
-    tension = np.array([value(mapgroup.tension_node(z)) for z in range(N_ZONES)], np.float32)
+    tension = np.array(mapgroup.read_tension(ng), np.float32)
     on = np.array([ex.map_index - 1 for ex in maps.expressions], np.int64)
     rows = table(maps)
     out = np.zeros((k, N_ZONES), np.float32)
@@ -435,8 +435,43 @@ def tension_statics(face):
 def write_tension(face, values):
     """Write this frame's tension-driven zone values into the weights group (unless baked)."""
     ng = face.ewrinkles_face.maps.weights_group
-    if ng is not None and _value_path(mapgroup.tension_node(0)) not in baked_paths(ng):
+    if ng is not None and _value_path(mapgroup.TENSION_NODES[0]) not in baked_paths(ng):
         mapgroup.set_tension(ng, values)
+
+
+def upgrade(face):
+    """A weights group of version 1, with a Value node for each zone's tension, gets its
+    tension packed into the three colours of version 2 (``nodegroups.TENSION_NODES``) in
+    place: the links, the values, the keys of a farm bake and the expressions' drivers stay.
+    Returns a line for the console, or "" when there was nothing to do."""
+    ng = face.ewrinkles_face.maps.weights_group
+    if ng is None or ng.library is not None or ng.nodes.get(mapgroup.legacy_tension_node(0)) is None:
+        return ""
+    outs = mapgroup.add_tension_nodes(ng)
+    curves = drivers.action_fcurves(ng)
+    baked = baked_paths(ng)
+    for z in range(N_ZONES):
+        old = ng.nodes.get(mapgroup.legacy_tension_node(z))
+        if old is None:
+            continue
+        name, c = mapgroup.tension_slot(z)
+        new = ng.nodes[name].outputs[0]
+        new.default_value[c] = old.outputs[0].default_value
+        for link in list(old.outputs[0].links):
+            ng.links.new(outs[z], link.to_socket)
+        old_path = _value_path(old.name)
+        fc = next((f for f in curves if f.data_path == old_path), None)
+        if fc is not None:
+            keys = np.array([tuple(k.co) for k in fc.keyframe_points], np.float64).reshape(-1, 2)
+            curves.remove(fc)
+            _key(new, c, keys[:, 0], keys[:, 1])
+            curves = drivers.action_fcurves(ng)
+        if old_path in baked:
+            baked = (baked - {old_path}) | {_value_path(name)}
+            ng["wrinkle_baked"] = sorted(baked)
+        ng.nodes.remove(old)
+    mapgroup.upgrade_layout_key(ng)
+    return "its tension-driven zone values are packed three to a colour (weights group version 2)"
 
 
 # ---------------------------------------------------------------------------------------
@@ -473,13 +508,13 @@ def bake_weights(face, scene, frame_start, frame_end, progress=None):
         return 0
     free_weights(face)
     muscle_rows = _muscle_rows(face)
-    nodes = [mapgroup.expr_node(e) for e in muscle_rows]
+    channels = [(mapgroup.expr_node(e), None) for e in muscle_rows]  # (node, index in its colour)
     if wants_tension(face):
-        nodes += [mapgroup.tension_node(z) for z in range(N_ZONES)]
-    if not nodes:
+        channels += [mapgroup.tension_slot(z) for z in range(N_ZONES)]
+    if not channels:
         return 0
     frames = range(frame_start, frame_end + 1)
-    values = np.zeros((len(frames), len(nodes)), np.float32)
+    values = np.zeros((len(frames), len(channels)), np.float32)
     current = scene.frame_current
     try:
         for i, frame in enumerate(frames):
@@ -487,22 +522,33 @@ def bake_weights(face, scene, frame_start, frame_end, progress=None):
             dg = bpy.context.evaluated_depsgraph_get()
             for j, e in enumerate(muscle_rows):
                 values[i, j] = maps.expressions[e].muscle.evaluated_get(dg).ewrinkles_muscle.contraction
-            for j in range(len(muscle_rows), len(nodes)):
-                values[i, j] = ng.nodes[nodes[j]].outputs[0].default_value
+            for j in range(len(muscle_rows), len(channels)):
+                name, c = channels[j]
+                values[i, j] = ng.nodes[name].outputs[0].default_value[c]
             if progress is not None:
                 progress(i + 1, len(frames))
     finally:  # nothing is keyed yet: a failure leaves the live drivers, on the frame it began on
         scene.frame_set(current)
-    paths = [_value_path(n) for n in nodes]
-    for path, node_name, column in zip(paths, nodes, values.T):
+    paths = list(dict.fromkeys(_value_path(name) for name, _c in channels))
+    for path in paths:
         ng.driver_remove(path)
-        out = ng.nodes[node_name].outputs[0]
-        for frame, v in zip(frames, column):
-            out.default_value = float(v)
-            out.keyframe_insert("default_value", frame=frame)
+    for (name, c), column in zip(channels, values.T):
+        _key(ng.nodes[name].outputs[0], c, frames, column)
     ng["wrinkle_baked"] = paths
     scene.frame_set(current)  # the keyed values, on the frame the bake began on
-    return len(paths)
+    return len(channels)
+
+
+def _key(out, index, frames, column):
+    """Key the socket ``out``'s value (channel ``index`` of a colour; None: a float) on
+    each of ``frames`` to the value of ``column``."""
+    for frame, v in zip(frames, column):
+        if index is None:
+            out.default_value = float(v)
+            out.keyframe_insert("default_value", frame=frame)
+        else:
+            out.default_value[index] = float(v)
+            out.keyframe_insert("default_value", index=index, frame=frame)
 
 
 def free_weights(face):

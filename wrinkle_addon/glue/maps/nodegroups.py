@@ -25,7 +25,11 @@ overflows Blender's 255-character expression limit (CC/iC Blender Tools ran into
 chained drivers depend on evaluation order.  Here every driver has one variable and no
 expression, so it evaluates with Python auto-run off, the table has no size limit, and
 Cycles folds the whole network to 8 K constants before rendering (every input is a
-constant), so it costs nothing per sample.
+constant), so it costs nothing per sample.  The tension-driven zone values that the add-on
+writes every frame are packed three to a colour (:data:`TENSION_NODES`): every value set
+makes Blender update the node tree, so a frame costs three updates instead of eight.  A
+shader reads no alpha from a colour (Separate Color gives red, green and blue), so 8
+values need three colours, not two.
 """
 
 import bpy
@@ -230,12 +234,50 @@ def weight_node(e, z):
     return f"Weight {e} {z}"
 
 
-def tension_node(z):
+# The tension-driven zone values, three to a colour: zone z is channel z % 3 (red, green,
+# blue) of the RGB node TENSION_NODES[z // 3].  Before weights version 2 each zone had a
+# Value node of its own (LEGACY_TENSION), which material.upgrade packs.
+TENSION_NODES = ("Tension A", "Tension B", "Tension C")
+WEIGHTS_VERSION = 2
+
+
+def tension_slot(z):
+    """(RGB node name, channel) holding zone ``z``'s tension value."""
+    return TENSION_NODES[z // 3], z % 3
+
+
+def legacy_tension_node(z):
     return f"Tension {z}"
 
 
 def _layout_key(n_maps, map_of_expression):
-    return f"{n_maps}:" + ",".join(str(m) for m in map_of_expression)
+    return f"w{WEIGHTS_VERSION}:{n_maps}:" + ",".join(str(m) for m in map_of_expression)
+
+
+def upgrade_layout_key(ng):
+    """Tag a group of weights version 1 whose tension ``material.upgrade`` packed as
+    version 2 (its layout is otherwise the same)."""
+    key = ng.get("wrinkle_layout")
+    if isinstance(key, str) and not key.startswith("w"):
+        ng["wrinkle_layout"] = f"w{WEIGHTS_VERSION}:{key}"
+
+
+def add_tension_nodes(ng, x=-200, y=0):
+    """The three RGB nodes of the tension values and their Separate Color nodes; returns the
+    8 output sockets, one a zone, in zone order."""
+    b = Builder(ng)
+    outs = []
+    for i, name in enumerate(TENSION_NODES):
+        zones = range(3 * i, min(3 * i + 3, N_ZONES))
+        b.x, b.y = x - 200, y - 200 * i
+        rgb = b.node("ShaderNodeRGB", name=name, label="Tension " + ", ".join(ZONES[z][1] for z in zones))
+        rgb.outputs[0].default_value = (0.0, 0.0, 0.0, 1.0)
+        b.x += 180
+        split = b.node("ShaderNodeSeparateColor", name=f"{name} Split")
+        split.mode = "RGB"
+        b.link(rgb.outputs[0], split.inputs[0])
+        outs += [split.outputs[c] for c in range(len(zones))]
+    return outs
 
 
 def build_weights(ng, names, map_of_expression, n_maps):
@@ -263,12 +305,7 @@ def build_weights(ng, names, map_of_expression, n_maps):
     for e, name in enumerate(names):
         n = b.node("ShaderNodeValue", name=expr_node(e), label=name[:60] or f"Expression {e + 1}")
         values.append(n.outputs[0])
-    tensions = []
-    b.x, b.y = -200, 0
-    for z in range(N_ZONES):
-        n = b.node("ShaderNodeValue", name=tension_node(z), label=f"Tension {ZONES[z][1]}")
-        n.outputs[0].default_value = 0.0
-        tensions.append(n.outputs[0])
+    tensions = add_tension_nodes(ng)
     for k in range(n_maps):
         for z in range(N_ZONES):
             b.x, b.y = 0, -(k * N_ZONES + z) * 220
@@ -299,7 +336,7 @@ def weights_layout_matches(ng, map_of_expression, n_maps):
         return False
     nodes = ng.nodes
     names = [expr_node(e) for e in range(len(map_of_expression))]
-    names += [tension_node(z) for z in range(N_ZONES)]
+    names += list(TENSION_NODES) + [f"{n} Split" for n in TENSION_NODES]
     names += [f"{kind} {k} {z}" for kind in ("Power", "Strength")
               for k in range(n_maps) for z in range(N_ZONES)]
     names += [weight_node(e, z) for e in range(len(map_of_expression)) for z in range(N_ZONES)]
@@ -330,8 +367,25 @@ def set_weights(ng, table, manual_values, zone_strength, zone_power, n_maps):
 
 
 def set_tension(ng, values):
-    """Write the 8 tension-driven zone values (only when they changed)."""
-    for z, v in enumerate(values):
-        node = ng.nodes.get(tension_node(z))
-        if node is not None and node.outputs[0].default_value != float(v):
-            node.outputs[0].default_value = float(v)
+    """Write the 8 tension-driven zone values, a colour (one node tree update) for each
+    three, and only the colours that changed."""
+    v = [float(x) for x in values] + [0.0] * (3 * len(TENSION_NODES) - N_ZONES)
+    for i, name in enumerate(TENSION_NODES):
+        node = ng.nodes.get(name)
+        if node is None:
+            continue
+        out = node.outputs[0]
+        rgb = tuple(v[3 * i: 3 * i + 3])
+        if tuple(out.default_value[:3]) != rgb:
+            out.default_value = (*rgb, 1.0)
+
+
+def read_tension(ng):
+    """The 8 tension-driven zone values the group holds (zeros where a node is missing)."""
+    out = [0.0] * N_ZONES
+    for z in range(N_ZONES):
+        name, c = tension_slot(z)
+        node = ng.nodes.get(name)
+        if node is not None:
+            out[z] = float(node.outputs[0].default_value[c])
+    return out
