@@ -380,8 +380,10 @@ def _scan(scene, changes=None):
         in_scene.add(uid)
         face = _is_face.get(uid) if changes is not None and uid not in changes else None
         if face is None:
-            face = _is_face[uid] = ob.type == "MESH" and (
-                ob.ewrinkles_face.enabled or any(s.active(ob) for s in shading))
+            # a muscle is never a face (faces.problem): its animated contraction tags it on
+            # every frame, and the shading sources' checks are skipped for it
+            face = _is_face[uid] = ob.type == "MESH" and (ob.ewrinkles_face.enabled or (
+                not ob.ewrinkles_muscle.is_muscle and any(s.active(ob) for s in shading)))
         if face:
             found.append(ob)
     return found, in_scene

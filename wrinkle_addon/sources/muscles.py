@@ -12,7 +12,7 @@ from ..ui import muscles as muscles_ui
 
 class _Static:
     __slots__ = ("plan", "footprint", "refs", "n_refs", "names", "uids", "params", "not_finite",
-                 "face_params", "left_out")
+                 "face_params", "left_out", "objects")
 
     def __init__(self, plan, refs, n_refs, muscles, marks, face_params, left_out=frozenset()):
         self.plan, self.footprint, self.refs, self.n_refs = plan, plan.footprint, refs, n_refs
@@ -20,6 +20,7 @@ class _Static:
         self.not_finite = [objects.not_finite(m) for m in muscles]
         self.uids = frozenset(m.session_uid for m in muscles + marks)
         self.params = {m.session_uid: objects.parameters(m) for m in muscles}
+        self.objects = {m.session_uid: m for m in muscles}
         self.face_params = face_params  # the face's Irregularity and Seed
         self.left_out = left_out  # the face's muscle objects that were in no scene at the build
 
@@ -92,11 +93,11 @@ class MuscleSource(WrinkleSource):
             return True
         if any(changes[uid][0] or changes[uid][1] for uid in touched):
             return False
-        refs = face.ewrinkles_face.muscles
-        for i in static.refs:
-            ob = refs[i].object
-            uid = ob.session_uid if ob is not None else None
-            if uid not in static.params or (uid in touched and objects.parameters(ob) != static.params[uid]):
+        # the face's list of muscles is as it was (an edit of it tags the face's transform,
+        # which returned above): only the touched muscles' parameters need a look
+        for uid in touched:
+            ob = static.objects.get(uid)
+            if ob is not None and objects.parameters(ob) != static.params[uid]:  # None: a landmark
                 return False
         return True
 
