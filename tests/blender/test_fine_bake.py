@@ -29,11 +29,13 @@ FARM_SCRIPT = textwrap.dedent("""
 """)
 
 
-def _fine_scene(enable, pull):
+def _fine_scene(enable, pull, subdivide=False):
     """The forehead patch with fine wrinkles carved, its BrowsUp ramping 0 -> 1 over frames
     1..3 (the shrinkage across the furrows grows), a camera, a raking light.  ``enable``: the
     geometric stage on; ``pull``: a Frontalis contracting 0 -> 1 over the same frames, whose
-    Waters pull the shrinkage sees."""
+    Waters pull the shrinkage sees; ``subdivide``: a Subdivision Surface last, which the
+    farm's stand-in applies to the cache (and which interpolates the shrinkage as a UV map,
+    so the face stores it on the corners live too)."""
     scene = bpy.context.scene
     face = uv_face(enable=enable)
     muscle = scenes.add_sheet(face, pull=0.3) if pull else None
@@ -46,6 +48,9 @@ def _fine_scene(enable, pull):
         for frame, value in ((1, 0.0), (3, 1.0)):
             muscle.ewrinkles_muscle.contraction = value
             muscle.keyframe_insert("ewrinkles_muscle.contraction", frame=frame)
+    if subdivide:
+        sub = face.modifiers.new("Subdivision", "SUBSURF")
+        sub.levels = sub.render_levels = 1
     scenes.add_camera_and_light(scene)
     scenes.setup_cycles(scene, size=48, samples=4)
     scene.frame_start, scene.frame_end = 1, 3
@@ -53,10 +58,14 @@ def _fine_scene(enable, pull):
 
 
 @pytest.mark.render
-@pytest.mark.parametrize("enable, pull", [(False, False), (True, False), (True, True)],
-                         ids=["fine-alone-no-bake", "baked-stage", "baked-stage-with-pull"])
-def test_fine_wrinkles_render_on_a_farm_as_they_do_live(tmp_path, enable, pull):
-    scene, face = _fine_scene(enable, pull)
+@pytest.mark.parametrize("enable, pull, subdivide", [(False, False, False), (True, False, False),
+                                                     (True, True, False), (True, False, True)],
+                         ids=["fine-alone-no-bake", "baked-stage", "baked-stage-with-pull",
+                              "baked-subdivided"])
+def test_fine_wrinkles_render_on_a_farm_as_they_do_live(tmp_path, enable, pull, subdivide):
+    """Live, the shrinkage is stored at the vertices (on the corners when subdivided after);
+    the bake's cache carries it as a UV map, on the corners, and the farm renders the same."""
+    scene, face = _fine_scene(enable, pull, subdivide)
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "shot.blend"))
     truth = {}
     for f in (1, 2, 3):
@@ -66,6 +75,8 @@ def test_fine_wrinkles_render_on_a_farm_as_they_do_live(tmp_path, enable, pull):
         truth[f] = scenes.load_png(tmp_path / f"live_{f}.png")
     # the shrinkage changes the picture: a farm that missed it would fail below
     assert np.abs(truth[3] - truth[1]).mean() > 0.01
+    ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    assert ev.attributes[fine_tree.SHRINKAGE_ATTR].domain == ("CORNER" if subdivide else "POINT")
     face = bpy.data.objects["Face"]
     if enable:
         bpy.context.view_layer.objects.active = face

@@ -132,6 +132,48 @@ def test_renders_and_exports_see_the_same_shrinkage_as_the_viewport():
     np.testing.assert_array_equal(fine_tree.shrinkage(face), viewport)
 
 
+def _domain(face):
+    ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    return ev.attributes[fine_tree.SHRINKAGE_ATTR].domain
+
+
+def test_the_shrinkage_is_stored_on_the_corners_only_where_a_uv_map_is_needed():
+    """At the vertices, where it is computed; on the corners (a UV map) while Bake for Farm
+    exports the cache, which carries only UV maps, and while a modifier after it makes new
+    vertices, which interpolate a UV map otherwise than a vertex attribute."""
+    face = _scene("shape-key")
+    scene = bpy.context.scene
+    scene.frame_set(3)
+    assert _domain(face) == "POINT" and fine_tree.corners(face) is False
+    want = fine_tree.shrinkage(face).copy()
+    assert want[0].max() > 0.1
+    sub = face.modifiers.new("Subdivision", "SUBSURF")
+    for f in (2, 3):  # viewport frames: the source sees the new modifier
+        scene.frame_set(f)
+    assert fine_tree.corners(face) is True and _domain(face) == "CORNER"
+    sub.show_viewport = sub.show_render = False
+    for f in (2, 3):
+        scene.frame_set(f)
+    assert fine_tree.corners(face) is False and _domain(face) == "POINT"
+    np.testing.assert_array_equal(fine_tree.shrinkage(face), want)
+    sub.show_render = True  # rendered subdivided: the render must match the farm's
+    scene.frame_set(2)
+    assert fine_tree.corners(face) is True
+    face.modifiers.remove(sub)
+    scene.frame_set(3)
+    assert fine_tree.corners(face) is False
+    with fine_tree.exporting(face):
+        assert fine_tree.corners(face) is True
+        scene.frame_set(2)
+        scene.frame_set(3)  # the frames an export steps through keep it
+        assert _domain(face) == "CORNER"
+        np.testing.assert_array_equal(fine_tree.shrinkage(face), want)
+    assert fine_tree.corners(face) is False
+    scene.frame_set(2)
+    scene.frame_set(3)
+    assert _domain(face) == "POINT"
+
+
 def test_the_modifier_sits_above_the_wrinkles_modifier_and_says_when_it_does_not():
     face = uv_face(enable=False)
     face.modifiers.new("Subdivision", "SUBSURF")
@@ -210,3 +252,29 @@ def test_a_face_carved_before_the_modifier_is_brought_up_to_date_on_load(tmp_pat
     bpy.context.scene.frame_set(1)
     bpy.context.scene.frame_set(3)
     np.testing.assert_array_equal(fine_tree.shrinkage(face), want)
+
+
+def test_a_face_of_shrinkage_group_version_1_is_brought_up_to_date_on_load(tmp_path, capfd):
+    """``data/fine_tree_v1.blend`` was saved by the version whose group always stored the
+    corners (``data/make_fine_tree_v1_blend.py``): opened now, its group is rebuilt in place,
+    the face stores the vertices and shows the shrinkage that version computed."""
+    from pathlib import Path
+
+    path = tmp_path / "v1.blend"
+    path.write_bytes((Path(__file__).with_name("data") / "fine_tree_v1.blend").read_bytes())
+    capfd.readouterr()
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    assert "stored at the vertices" in capfd.readouterr().out
+    face = bpy.data.objects["Face"]
+    mod = fine_tree.find_modifier(face)
+    assert mod.node_group["ewrinkles_fine_tree_version"] == fine_tree.VERSION
+    assert fine_tree.corners(face) is False and fine_tree.order_problem(face) == ""
+    bpy.context.scene.frame_set(3)
+    assert _domain(face) == "POINT"
+    want = np.array(face["v1_shrinkage"], np.float32).reshape(2, -1)
+    assert want[0].max() > 0.1
+    np.testing.assert_allclose(fine_tree.shrinkage(face), want, rtol=0, atol=1e-7)
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    capfd.readouterr()
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    assert "stored at the vertices" not in capfd.readouterr().out

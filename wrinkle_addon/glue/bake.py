@@ -22,6 +22,7 @@ bpy 4.5 and 5.2).  So the stand-in gets a copy of that modifier only; a copy of 
 or an Armature after the stage would apply it a second time.
 """
 
+import contextlib
 import os
 import zlib
 
@@ -179,7 +180,11 @@ class Bake:
         try:
             os.makedirs(self.folder, exist_ok=True)
             free(self.face)  # the face itself renders while it is exported
-            _export(self.context, self.face, self.partial, *self.frames)
+            with contextlib.ExitStack() as stack:  # what each active source needs the cache to carry
+                for source in registry.sources():
+                    if source.active(self.face):
+                        stack.enter_context(source.exporting(self.face))
+                _export(self.context, self.face, self.partial, *self.frames)
             if not os.path.exists(self.partial):
                 raise BakeError(f"The Alembic export did not write {self.path}")
             if os.path.lexists(self.path):

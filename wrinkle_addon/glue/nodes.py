@@ -41,6 +41,33 @@ def nodes_modifier(ob, group_name):
     return None
 
 
+def _input_struct(mod, identifier):
+    """Blender 5.2's RNA struct of the modifier's input, or None before 5.2 (and for an
+    identifier the modifier does not have)."""
+    inputs = getattr(getattr(mod, "properties", None), "inputs", None)
+    return None if inputs is None else getattr(inputs, identifier, None)
+
+
+def modifier_input(mod, identifier, default=None):
+    """The value of the Geometry Nodes modifier ``mod``'s input ``identifier`` (its socket's
+    identifier).  Blender 5.2 gives the inputs RNA properties (``mod.properties.inputs``);
+    before, they are the modifier's custom properties."""
+    if getattr(mod, "properties", None) is not None:
+        item = _input_struct(mod, identifier)
+        return default if item is None else item.value
+    return mod.get(identifier, default)
+
+
+def set_modifier_input(mod, identifier, value):
+    """Set the modifier's input ``identifier`` (see :func:`modifier_input`) and tag its object
+    (neither way of setting it does)."""
+    if getattr(mod, "properties", None) is not None:
+        _input_struct(mod, identifier).value = value
+    else:
+        mod[identifier] = value
+    mod.id_data.update_tag()
+
+
 def float_inputs(ng, specs):
     """Add a float input to the group ``ng`` for each ``(name, default, min, max, tooltip)``."""
     for name, default, lo, hi, tip in specs:

@@ -12,6 +12,8 @@ geometric ones through ``core.combine`` and writes the result once, then writes 
 shading values.
 """
 
+import contextlib
+
 from ..core import combine
 
 
@@ -136,6 +138,12 @@ class WrinkleSource:
 
     def free_bake(self, face):
         """Undo :meth:`bake`."""
+
+    def exporting(self, face):
+        """A context manager around the Alembic export of Bake for Farm: what the source
+        changes on ``face`` for the cache to carry its values (and undoes after).  Default:
+        nothing."""
+        return contextlib.nullcontext()
 
     # --- files of older versions -------------------------------------------------------
     def upgrade(self, face):

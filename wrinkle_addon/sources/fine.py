@@ -21,10 +21,11 @@ from ..ui import bando as bando_ui
 
 
 class _Static:
-    __slots__ = ("plan", "problem", "corner_verts", "values")
+    __slots__ = ("plan", "problem", "corner_verts", "values", "corners")
 
-    def __init__(self, plan=None, problem="", corner_verts=None):
+    def __init__(self, plan=None, problem="", corner_verts=None, corners=False):
         self.plan, self.problem, self.corner_verts = plan, problem, corner_verts
+        self.corners = corners  # whether the modifier stores the corners (fine_tree.wants_corners)
         self.values = None if plan is None else np.empty((2, plan.n_verts), np.float32)
 
 
@@ -42,15 +43,18 @@ class FineSource(WrinkleSource):
     def static_key(self, face, in_scene):
         fs = face.ewrinkles_face.fine_wrinkles
         return (meshio.topology_key(face.data), fs.uv_map, fs.image_1.name, fs.furrows,
-                surface.uv_key(face, fs.uv_map or None))
+                surface.uv_key(face, fs.uv_map or None), fine_tree.wants_corners(face))
 
     def unchanged(self, face, static, changes, in_scene):
         # only a new carving (which forgets the cache) or an edit changes it; an edit (of the
-        # UVs, say) tags the mesh with every flag, animation only with geometry
-        return not changes.get(face.session_uid, (False, False))[0]
+        # UVs, say) tags the mesh with every flag, animation only with geometry.  A
+        # subdivision added after the modifier may tag it with neither: its domain is checked
+        return (not changes.get(face.session_uid, (False, False))[0]
+                and static.corners == fine_tree.wants_corners(face))
 
     def build(self, face, mesh, in_scene):
         fs = face.ewrinkles_face.fine_wrinkles
+        corners = fine_tree.sync_corners(face)
         try:
             s = surface.Surface(face, fs.uv_map or None)
             why = surface.layout_problem(face, s)
@@ -61,7 +65,7 @@ class FineSource(WrinkleSource):
             if fields is None:
                 return _Static(problem="The fine wrinkles' direction fields are missing: carve them again")
             plan = fine_glue.store_plan(face, s, m, fields)  # written if it differs
-            return _Static(plan, corner_verts=meshio.read_polygons(face.data)[0])
+            return _Static(plan, corner_verts=meshio.read_polygons(face.data)[0], corners=corners)
         except surface.SurfaceError as exc:
             return _Static(problem=str(exc))
         except ValueError as exc:  # the core's checks (non-finite fields, say)
@@ -75,6 +79,9 @@ class FineSource(WrinkleSource):
 
     def problems(self, face, static):
         return static.problem or fine_tree.order_problem(face)
+
+    def exporting(self, face):
+        return fine_tree.exporting(face)
 
     def upgrade(self, face):
         return fine_glue.upgrade(face)

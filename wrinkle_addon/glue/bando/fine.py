@@ -323,8 +323,10 @@ def upgrade(face):
     of a farm bake goes (the files on disk are kept), and the per-frame attributes too.
     Returns a line for the console, or "" when there was nothing to do."""
     fs = settings(face)
-    if fs.image_1 is None or fine_tree.find_modifier(face) is not None:
+    if fs.image_1 is None:
         return ""
+    if fine_tree.find_modifier(face) is not None:
+        return fine_tree.upgrade_group(face)
     shading.ensure_fine_group()
     said = "its fine wrinkles' shrinkage is computed by a new Fine Wrinkles modifier"
     nt, _group = _group_node(face)

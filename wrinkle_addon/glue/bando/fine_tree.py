@@ -16,15 +16,22 @@ four slots, and its share.  The tree, per vertex and field::
 it) plus the muscles' Waters pull, which the frame stage writes as ``wrinkle_pull``
 (``glue.stage.PULL_ATTR``) with the frame it belongs to: wrinkles never feed the
 shrinkage they come from, and the pull does, as in the NumPy stage.  The result, both
-fields as one 2-D vector per face corner (``SHRINKAGE_ATTR``; a UV map for Blender, so the
-Alembic bake carries it to the farm's stand-in), is what the *Fine Wrinkles* shader
-group reads.  ``core.bando.fine.slot_shrinkages`` is the tree's NumPy transcription and
+fields as one 2-D vector (``SHRINKAGE_ATTR``), is what the *Fine Wrinkles* shader group
+reads.  It is stored at the vertices, where it is computed, unless the modifier's *Corners*
+input asks for a UV map (one 2-D vector a face corner, each its vertex's): the Alembic
+bake carries only UV maps to the farm's stand-in, so Bake for Farm exports with it on, and
+so does a face with a modifier after this one that makes new vertices (a Subdivision
+Surface, say), which interpolates a UV map differently from a vertex attribute
+(:func:`wants_corners`).  Storing the corners cost a third of a Geometry Nodes tension
+setup's time at 50k vertices.  ``core.bando.fine.slot_shrinkages`` is the tree's NumPy transcription and
 ``core.bando.fine.shrinkages`` the reference it equals (tested, at every vertex).
 
 The modifier sits directly above the Wrinkles modifier (its input is the stage's skin), or,
 on a face without one, after the deformers; its group is tagged (``glue.stage.READS_SKIN``)
 so that Enable Wrinkles, which adds the stage after the deformers, moves it directly above.
 """
+
+import contextlib
 
 import bpy
 import numpy as np
@@ -34,8 +41,9 @@ from ..errors import WrinkleError
 
 GROUP_NAME = "Fine Wrinkle Shrinkage"
 MODIFIER_NAME = "Fine Wrinkles"
-VERSION = 1
-SHRINKAGE_ATTR = "ewrinkles_fine_shrinkage"  # corner 2-D vector: (field 1, field 2)
+VERSION = 2  # 2: at the vertices unless Corners is on
+SHRINKAGE_ATTR = "ewrinkles_fine_shrinkage"  # 2-D vector (field 1, field 2), at the vertices or corners
+CORNERS_INPUT = "Corners"
 SKIN_ATTR = ".ewrinkles_fine_skin"  # inside the tree only: the skin it measures
 TINY = 1e-30  # as core.bando.field: a collapsed edge gives s -> 1, never NaN
 
@@ -70,6 +78,10 @@ def _build_group(ng):
     ng.interface.clear()
     ng.nodes.clear()
     ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    corners = ng.interface.new_socket(CORNERS_INPUT, in_out="INPUT", socket_type="NodeSocketBool")
+    corners.default_value = False
+    corners.description = ("Store the shrinkage as a UV map, one value a face corner (Bake for Farm, and a "
+                           "face subdivided after this modifier), instead of one a vertex")
     ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
     b = nodes.Builder(ng)
     gin = b.node("NodeGroupInput")
@@ -110,17 +122,28 @@ def _build_group(ng):
         share = named("FLOAT", share_attr(f))
         fields.append(b.math("MULTIPLY", b.math("SUBTRACT", share, sides), share))
     b.x, b.y = 2200, 0
-    # computed once per vertex, then stored on the corners (each corner gets its vertex's)
+    both = b.combine(fields[0], fields[1], 0.0)
+    at_points = b.node("GeometryNodeStoreNamedAttribute", data_type="FLOAT2", domain="POINT")
+    at_points.inputs["Name"].default_value = SHRINKAGE_ATTR
+    b.link(skin.outputs["Geometry"], at_points.inputs["Geometry"])
+    b.link(both, at_points.inputs["Value"])
+    # or computed once per vertex, then stored on the corners (each corner gets its vertex's)
+    b.y = -250
     per_vertex = b.node("GeometryNodeFieldOnDomain", data_type="FLOAT_VECTOR", domain="POINT")
-    b.link(b.combine(fields[0], fields[1], 0.0), per_vertex.inputs["Value"])
-    store = b.node("GeometryNodeStoreNamedAttribute", data_type="FLOAT2", domain="CORNER")
-    store.inputs["Name"].default_value = SHRINKAGE_ATTR
-    b.link(skin.outputs["Geometry"], store.inputs["Geometry"])
-    b.link(per_vertex.outputs["Value"], store.inputs["Value"])
+    b.link(both, per_vertex.inputs["Value"])
+    at_corners = b.node("GeometryNodeStoreNamedAttribute", data_type="FLOAT2", domain="CORNER")
+    at_corners.inputs["Name"].default_value = SHRINKAGE_ATTR
+    b.link(skin.outputs["Geometry"], at_corners.inputs["Geometry"])
+    b.link(per_vertex.outputs["Value"], at_corners.inputs["Value"])
+    b.x, b.y = 2500, 0
+    switch = b.node("GeometryNodeSwitch", input_type="GEOMETRY")  # only the chosen branch runs
+    b.link(gin.outputs[CORNERS_INPUT], switch.inputs["Switch"])
+    b.link(at_points.outputs["Geometry"], switch.inputs["False"])
+    b.link(at_corners.outputs["Geometry"], switch.inputs["True"])
     b.x += 250
     drop = b.node("GeometryNodeRemoveAttribute")
     drop.inputs["Name"].default_value = SKIN_ATTR
-    b.link(store.outputs["Geometry"], drop.inputs["Geometry"])
+    b.link(switch.outputs[0], drop.inputs["Geometry"])
     gout = b.node("NodeGroupOutput")
     b.link(drop.outputs["Geometry"], gout.inputs[0])
     ng[stage.READS_SKIN] = True
@@ -130,6 +153,19 @@ def ensure_group():
     """The shared node group; reused when it exists, refused when linked and read-only."""
     return nodes.ensure_group(GROUP_NAME, "GeometryNodeTree", VERSION, _build_group, FineTreeError,
                               key="ewrinkles_fine_tree_version")
+
+
+def upgrade_group(face):
+    """Rebuild the modifier's group of an older version in place (its users stay), and set its
+    Corners input; a line for the console, or "" when it is up to date."""
+    mod = find_modifier(face)
+    ng = mod.node_group if mod is not None else None
+    if ng is None or ng.get("ewrinkles_fine_tree_version") == VERSION or ng.library is not None:
+        return ""
+    mod.node_group = ensure_group()
+    sync_corners(face)
+    return (f"its fine wrinkles' shrinkage is stored at the vertices (Fine Wrinkle Shrinkage version "
+            f"{VERSION}), on the corners only for a bake or a subdivision after it")
 
 
 def find_modifier(face):
@@ -161,6 +197,7 @@ def ensure_modifier(face):
     if home != here:
         face.modifiers.move(here, home)
     mod.show_viewport = mod.show_render = True
+    sync_corners(face)
     return mod
 
 
@@ -231,28 +268,86 @@ def shrinkage(face, depsgraph=None):
     dg = depsgraph or bpy.context.evaluated_depsgraph_get()
     ev = face.evaluated_get(dg).data
     att = ev.attributes.get(SHRINKAGE_ATTR)
-    if att is None or att.domain != "CORNER" or att.data_type != "FLOAT2":
+    if att is None or att.domain not in ("POINT", "CORNER") or att.data_type != "FLOAT2":
         return None
-    corner = np.empty(2 * len(att.data), np.float32)
-    att.data.foreach_get("vector", corner)
-    verts, _starts, _sizes = meshio.read_polygons(ev)
-    out = np.zeros((2, len(ev.vertices)), np.float32)
-    out[:, verts] = corner.reshape(-1, 2).T
-    return out[:, :len(face.data.vertices)]
+    values = np.empty(2 * len(att.data), np.float32)
+    att.data.foreach_get("vector", values)
+    values = values.reshape(-1, 2).T
+    if att.domain == "CORNER":
+        verts, _starts, _sizes = meshio.read_polygons(ev)
+        out = np.zeros((2, len(ev.vertices)), np.float32)
+        out[:, verts] = values
+        values = out
+    return values[:, :len(face.data.vertices)]
 
 
 def write_evaluated(ev, corner_verts, values):
     """Write both fields' shrinkage ``values`` (2, N) float32 at the face's N vertices into
-    the evaluated mesh ``ev`` (its ``SHRINKAGE_ATTR``, as the tree stores it: each corner its
-    vertex's), where ``corner_verts`` are the face's corner vertices.  False when ``ev``
-    holds no such attribute on the same corners (the tree did not run, or the topology
-    changed), and nothing is written."""
+    the evaluated mesh ``ev`` (its ``SHRINKAGE_ATTR``, as the tree stores it: at the vertices,
+    or each corner its vertex's), where ``corner_verts`` are the face's corner vertices.
+    False when ``ev`` holds no such attribute on the same vertices or corners (the tree did
+    not run, or the topology changed), and nothing is written."""
     att = ev.attributes.get(SHRINKAGE_ATTR)
-    if (att is None or att.domain != "CORNER" or att.data_type != "FLOAT2"
-            or len(att.data) != len(corner_verts) or len(ev.vertices) != values.shape[1]):
+    if att is None or att.data_type != "FLOAT2" or len(ev.vertices) != values.shape[1]:
         return False
-    att.data.foreach_set("vector", np.ascontiguousarray(values.T[corner_verts]).reshape(-1))
-    return True
+    if att.domain == "POINT" and len(att.data) == values.shape[1]:
+        att.data.foreach_set("vector", np.ascontiguousarray(values.T).reshape(-1))
+        return True
+    if att.domain == "CORNER" and len(att.data) == len(corner_verts):
+        att.data.foreach_set("vector", np.ascontiguousarray(values.T[corner_verts]).reshape(-1))
+        return True
+    return False
+
+
+_exporting = set()  # session_uid of the faces whose Alembic bake is being exported
+
+
+def wants_corners(face):
+    """Whether the modifier should store the shrinkage on the face corners (a UV map): while
+    Bake for Farm exports the face (the cache carries only UV maps), or when a modifier after
+    it, enabled in the viewport or in renders, makes new vertices, which interpolate a UV
+    map (smoothly, as the farm's stand-in does) and a vertex attribute (linearly)
+    differently."""
+    if face.session_uid in _exporting:
+        return True
+    mods = list(face.modifiers)
+    mod = find_modifier(face)
+    after = mods[mods.index(mod) + 1:] if mod is not None else ()
+    return any((m.show_viewport or m.show_render) and m.type in stage.TOPOLOGY_MODIFIERS for m in after)
+
+
+def _corners_key(mod):
+    item = mod.node_group.interface.items_tree.get(CORNERS_INPUT) if mod.node_group is not None else None
+    return item.identifier if item is not None else None
+
+
+def corners(face):
+    """Whether the face's modifier stores the corners (its Corners input), or None without one."""
+    mod = find_modifier(face)
+    key = _corners_key(mod) if mod is not None else None
+    return None if key is None else bool(nodes.modifier_input(mod, key, False))
+
+
+def sync_corners(face):
+    """Set the modifier's Corners input to :func:`wants_corners` (only if it differs)."""
+    mod = find_modifier(face)
+    key = _corners_key(mod) if mod is not None else None
+    want = wants_corners(face)
+    if key is not None and bool(nodes.modifier_input(mod, key, False)) != want:
+        nodes.set_modifier_input(mod, key, want)
+    return want
+
+
+@contextlib.contextmanager
+def exporting(face):
+    """The shrinkage on the corners while the block exports ``face``'s Alembic cache."""
+    _exporting.add(face.session_uid)
+    try:
+        sync_corners(face)
+        yield
+    finally:
+        _exporting.discard(face.session_uid)
+        sync_corners(face)
 
 
 def remove(face):
