@@ -201,6 +201,12 @@ def ensure_modifier(face):
     return mod
 
 
+def _after(face, mod):
+    """The face's modifiers after ``mod``."""
+    mods = list(face.modifiers)
+    return mods[mods.index(mod) + 1:]
+
+
 def order_problem(face):
     """Why the modifier does not measure the skin the wrinkles see, or "": a missing or
     disabled modifier, or a modifier between it and the Wrinkles modifier (without one, a
@@ -211,8 +217,7 @@ def order_problem(face):
                 "again")
     if not (mod.show_viewport and mod.show_render):
         return f'The "{mod.name}" modifier is disabled: the fine wrinkles do not follow the skin'
-    mods = list(face.modifiers)
-    after = mods[mods.index(mod) + 1:]
+    after = _after(face, mod)
     wrinkles = stage.find_modifier(face)
     if wrinkles is not None:
         if wrinkles not in after:
@@ -310,28 +315,28 @@ def wants_corners(face):
     differently."""
     if face.session_uid in _exporting:
         return True
-    mods = list(face.modifiers)
     mod = find_modifier(face)
-    after = mods[mods.index(mod) + 1:] if mod is not None else ()
-    return any((m.show_viewport or m.show_render) and m.type in stage.TOPOLOGY_MODIFIERS for m in after)
+    return mod is not None and any((m.show_viewport or m.show_render) and m.type in stage.TOPOLOGY_MODIFIERS
+                                   for m in _after(face, mod))
 
 
-def _corners_key(mod):
-    item = mod.node_group.interface.items_tree.get(CORNERS_INPUT) if mod.node_group is not None else None
-    return item.identifier if item is not None else None
+def _corners_input(face):
+    """(the modifier, its Corners input's identifier), or (the modifier or None, None)."""
+    mod = find_modifier(face)
+    ng = mod.node_group if mod is not None else None
+    item = ng.interface.items_tree.get(CORNERS_INPUT) if ng is not None else None
+    return mod, (item.identifier if item is not None else None)
 
 
 def corners(face):
     """Whether the face's modifier stores the corners (its Corners input), or None without one."""
-    mod = find_modifier(face)
-    key = _corners_key(mod) if mod is not None else None
+    mod, key = _corners_input(face)
     return None if key is None else bool(nodes.modifier_input(mod, key, False))
 
 
 def sync_corners(face):
     """Set the modifier's Corners input to :func:`wants_corners` (only if it differs)."""
-    mod = find_modifier(face)
-    key = _corners_key(mod) if mod is not None else None
+    mod, key = _corners_input(face)
     want = wants_corners(face)
     if key is not None and bool(nodes.modifier_input(mod, key, False)) != want:
         nodes.set_modifier_input(mod, key, want)

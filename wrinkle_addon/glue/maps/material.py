@@ -468,8 +468,9 @@ def upgrade(face):
             curves = drivers.action_fcurves(ng)
         if old_path in baked:
             baked = (baked - {old_path}) | {_value_path(name)}
-            ng["wrinkle_baked"] = sorted(baked)
         ng.nodes.remove(old)
+    if baked:
+        ng["wrinkle_baked"] = sorted(baked)
     mapgroup.upgrade_layout_key(ng)
     return "its tension-driven zone values are packed three to a colour (weights group version 2)"
 

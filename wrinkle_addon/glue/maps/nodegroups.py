@@ -236,7 +236,7 @@ def weight_node(e, z):
 
 # The tension-driven zone values, three to a colour: zone z is channel z % 3 (red, green,
 # blue) of the RGB node TENSION_NODES[z // 3].  Before weights version 2 each zone had a
-# Value node of its own (LEGACY_TENSION), which material.upgrade packs.
+# Value node of its own (legacy_tension_node), which material.upgrade packs.
 TENSION_NODES = ("Tension A", "Tension B", "Tension C")
 WEIGHTS_VERSION = 2
 
