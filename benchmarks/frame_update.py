@@ -44,10 +44,11 @@ then timed frames warm+1..warm+frames, of one configuration.  Every frame time
 is the MEDIAN over the frames (this machine is shared; means are in
 ``*_mean_ms`` where useful).
 
-The interleaved measurement.  One *repeat* runs, for each of five configurations
+The interleaved measurement.  One *repeat* runs, for each of the eight configurations
 of the same scene, a base block right next to that configuration's block:
 
     base wrinkles  base tension  base pulling  base displace  base displace_const  base floor
+    base floor_maths  base floor_maths_pulling
 
 and the next repeat runs the same sequence reversed (each configuration's block
 then comes just before its base block), ``--repeats`` times (default 3, at least
@@ -67,6 +68,12 @@ positions with ``foreach_get`` (+ reading ``tension`` in the tension blocks):
                     stored skin, adds a zero offset and writes the positions into
                     the evaluated mesh (``foreach_get`` + ``foreach_set`` +
                     ``Mesh.update()``), with no wrinkle math and no checks.
+``floor_maths``     the floor's bare handler doing the muscles' maths as well, in the
+                    frame: ``core.muscles.system.evaluate`` of the wrinkles-only plan on
+                    the skin it read, its offsets added before the write; no change
+                    detection, no checks, no other source.  ``floor_maths_pulling``: the
+                    same with the pulling plan.  (Left out when the hand-timed parts
+                    below failed: they capture the plans.)
 ``wrinkles``        the Wrinkles modifier on and the frame handler in, muscles
                     wrinkles-only: the add-on as the viewport runs it.
 ``pulling``         the same with every muscle pulling.
@@ -115,6 +122,8 @@ below), so it is not exactly the difference of the pooled frame times:
     The cost of the floor configuration (median of d_r(floor)) and its pooled
     frame time: what reading and writing the face and the GN output stage cost
     before any wrinkle is computed.  No NumPy stage can cost less.
+``floor_maths_ms`` / ``floor_maths_frame_ms`` (and ``_pulling``)
+    The same for the floor_maths configurations: the floor plus the maths.
 
 Ratios, every one the MEDIAN OF PER-REPEAT RATIOS: in repeat r, m_r(config) is
 the median frame time of the configuration's block and b_r(config) that of the
@@ -136,6 +145,10 @@ left is null (n/a).  The per-repeat values are in ``per_repeat``.
                              stage over its own NumPy floor, the bare handler plus the
                              muscles' arithmetic alone in a tight loop (``_pulling``: of the
                              pulling blocks, with the pulling plan's tight loop)
+``stage_floor_maths_ratio``  d_r(wrinkles) / d_r(floor_maths): the stage over the same maths
+                             run in the frame with no bookkeeping, so both run on the caches
+                             Blender's evaluation leaves (``_pulling``: d_r(pulling) /
+                             d_r(floor_maths_pulling))
 ``playback_ratio_floor``     m_r(floor) / b_r(floor)
 ``per_repeat``               ``frame_ms``: m_r, ``base_ms``: b_r and
                              ``cost_ms``: d_r, per configuration (a list each,
@@ -157,12 +170,24 @@ removed, calling the functions it calls:
     positions (and its ``wrinkle_offset``), and ``Mesh.update()`` so its normals
     are recomputed.  No second evaluation follows.  ``write_refused_frames``:
     timed frames on which ``_write_in_place`` declined (should be 0).
-``update_face_ms`` / ``overhead_ms``
-    The whole ``pipeline.update_scene(in_place=True)`` call, as the viewport
-    handler makes it (scene scan, checks, topology key, rest-position
-    comparison, muscle signatures, contraction gathering, evaluate, write);
-    ``overhead_ms`` = update_face_ms - (read + compute + write) (negative when
-    the handler's own path is cheaper than ``system.evaluate``).
+``update_face_ms`` / ``overhead_ms`` / ``update_scene_full_ms``
+    ``update_face_ms``: the add-on's frame handler as the viewport runs it, called
+    by Blender after each ``frame_set`` with the frame's depsgraph and timed by its
+    own clock (``pipeline.stage_seconds``): the IDs Blender updated (change
+    detection), the scene scan, the checks, the sources' static data (kept when
+    the updated IDs cannot have changed it), the contractions, the maths and the
+    in-place write.  ``handler_read_ms``, ``handler_compute_ms`` and
+    ``handler_write_ms``: the skin read, the maths (the sources' contributions and
+    ``core.combine``) and the in-place write (with the ``Mesh.update()`` after the
+    shading values), timed inside the same calls (the functions wrapped for the
+    block).  ``overhead_ms``: per frame, the handler's time minus those three, the
+    median over the frames: everything the handler spends beyond the maths and the
+    writes, change detection included.  ``overhead_two_loops_ms`` is the older
+    figure, update_face_ms - (read + compute + write) of the separate loop above
+    (its compute runs ``system.evaluate``, so it is noisier).
+    ``update_scene_full_ms``: ``pipeline.update_scene(in_place=True)`` called with
+    no list of updated IDs, the full check that edits and refreshes run (every
+    static key computed, the rest positions compared); not a playback cost.
 ``writeback_handler_ms`` / ``writeback_reeval_ms``
     The other path, taken by render and export frames: ``update_scene`` writing
     ``wrinkle_offset`` into the original mesh and tagging it, then the second
@@ -220,6 +245,7 @@ that could not be computed are null in the JSON and "n/a" in the log.
 """
 
 import argparse
+import contextlib
 import cProfile
 import io
 import json
@@ -260,7 +286,8 @@ _F = np.float32
 MUSCLE_LANDMARKS = ("hairline_center", "glabella", "brow_outer_L", "eye_L", "nose_tip",
                     "mouth_corner_L", "chin", "cheekbone_L")
 # base, then the configurations each measured next to a base block, in a repeat's order
-CONFIGS = ("base", "wrinkles", "tension", "pulling", "displace", "displace_const", "floor")
+CONFIGS = ("base", "wrinkles", "tension", "pulling", "displace", "displace_const", "floor", "floor_maths",
+           "floor_maths_pulling")
 MUSCLE_CONFIGS = (("wrinkles", ""), ("pulling", "_pulling"))
 # contraction keys (frame, value) per role; never 0, so every muscle pulls on every frame
 CONTRACTION_KEYS = {
@@ -328,6 +355,42 @@ def clean(v):
     return v
 
 
+# The parts of the frame handler timed inside its own call (``measure_split``): the module
+# and function name of each wrapped call, by part.  "write" is the in-place write and the
+# ``Mesh.update()`` after the shading values.
+_PARTS = {"read": ((meshio, "read_vector_prefix"),),
+          "compute": ((pipeline, "_contributions"), (pipeline.combine, "combine")),
+          "write": ((pipeline, "_write_in_place"), (pipeline, "_write_shading"))}
+
+
+@contextlib.contextmanager
+def _timed_parts():
+    """Wrap the handler's parts (:data:`_PARTS`) in timers for the block; yields the dict
+    part -> seconds that they add to (clear it before each frame)."""
+    acc = {}
+    saved = []
+
+    def timed(fn, key):
+        def call(*a, **k):
+            t = pc()
+            try:
+                return fn(*a, **k)
+            finally:
+                acc[key] = acc.get(key, 0.0) + pc() - t
+        return call
+
+    for key, calls in _PARTS.items():
+        for module, name in calls:
+            fn = getattr(module, name)
+            saved.append((module, name, fn))
+            setattr(module, name, timed(fn, key))
+    try:
+        yield acc
+    finally:
+        for module, name, fn in saved:
+            setattr(module, name, fn)
+
+
 class Bench:
     def __init__(self, target, warm, frames, rig="light", repeats=3):
         self.target = target
@@ -340,7 +403,7 @@ class Bench:
         self.mods = {}
         self.stage_mod = None
         self.muscles = []
-        self._floor_skin = self._floor_offset = None
+        self._floor_skin = self._floor_offset = self._floor_plan = None
         self.handler(True)
 
     # -- scene -------------------------------------------------------------
@@ -355,6 +418,9 @@ class Bench:
         self.pos_buf = np.empty(self.n * 3, _F)
         self._floor_skin = np.empty(self.n * 3, _F)
         self._floor_offset = np.zeros(self.n * 3, _F)
+        # "" / "_pulling" -> (the muscles' plan of that configuration, its live muscles in the
+        # plan's order, an offset buffer of its own), for the floor_maths configurations
+        self.floor_plans = {}
         self.uv_name, made = bs.ensure_uv_map(ob)
         if self.rig_kind == "arkit":
             keys, moved = bs.add_arkit_keys(ob, self.landmarks)
@@ -423,8 +489,10 @@ class Bench:
             if m.ewrinkles_muscle.wrinkles_only == pulling:
                 m.ewrinkles_muscle.wrinkles_only = not pulling
 
-    def floor_handler(self, on):
-        """The ``floor`` configuration's handler in or out (see the module doc)."""
+    def floor_handler(self, on, plan=None):
+        """The ``floor`` configuration's handler in or out (see the module doc); with
+        ``plan``, the ``floor_maths`` one (the same plus the muscles' maths of ``plan``)."""
+        self._floor_plan = plan
         self._hook(self._floor, on)
 
     def _floor(self, scene, depsgraph):
@@ -433,7 +501,13 @@ class Bench:
         ev = self.ob.evaluated_get(depsgraph).data
         skin = self._floor_skin
         ev.attributes[stage.SKIN_ATTR].data.foreach_get("vector", skin)
-        np.add(skin, self._floor_offset, out=skin)
+        if self._floor_plan is not None:  # floor_maths: the maths alone, no bookkeeping
+            plan, live, out = self._floor_plan
+            contraction = np.array([m.ewrinkles_muscle.contraction for m in live], np.float64)
+            system.evaluate(plan, skin.reshape(-1, 3), contraction, self.ob.ewrinkles_face.strength, out=out)
+            np.add(skin, out.reshape(-1), out=skin)
+        else:
+            np.add(skin, self._floor_offset, out=skin)
         ev.attributes["position"].data.foreach_set("vector", skin)
         ev.update()
 
@@ -448,12 +522,14 @@ class Bench:
                 self.set_pulling(config == "pulling")
         for name, mod in self.mods.items():
             mod.show_viewport = name == config
-        if wrinkles or config == "floor":
+        if wrinkles or config.startswith("floor"):
             self.stage_mod.show_viewport = True
         if wrinkles:
             self.handler(True)
         if config == "floor":
             self.floor_handler(True)
+        elif config.startswith("floor_maths"):
+            self.floor_handler(True, self.floor_plans[config[len("floor_maths"):]])
 
     # -- the references: GN tension and GN displacement by tension (untimed setup) --------
     def add_references(self):
@@ -594,7 +670,7 @@ class Bench:
             live = muscle_objects.live_muscles(ob)
             strength = ob.ewrinkles_face.strength
             st = self.state()
-            rd, cp, wr, base, uf, wb, rev = [], [], [], [], [], [], []
+            rd, cp, wr, base, uf, full, wb, rev, inside = [], [], [], [], [], [], [], [], []
             refused = [0]
 
             def one(f, record):
@@ -626,8 +702,25 @@ class Bench:
             for f in self.frames:
                 one(f, True)
 
-            # the whole handler call on the in-place path (bookkeeping included), and the
-            # write-back path that render and export frames take, with its re-evaluation
+            # the whole handler call as the viewport makes it: the add-on's own frame handler,
+            # by its own clock (pipeline.stage_seconds) around Blender's call with the frame's
+            # depsgraph (change detection included); its skin read, maths and in-place write
+            # timed inside the same call (wrapped), so the overhead is per frame, not the
+            # difference of two loops
+            self.handler(True)
+            with _timed_parts() as parts:
+                for f in self.warm + self.frames:
+                    parts.clear()
+                    s0 = pipeline.stage_seconds[0]
+                    self.scene.frame_set(f)
+                    if f in self.frames:
+                        uf.append(pipeline.stage_seconds[0] - s0)
+                        inside.append(dict(parts))
+                    self.read_positions(bpy.context.evaluated_depsgraph_get())
+            self.handler(False)
+            # the full check that edits and refreshes run (no change list: every key
+            # computed, the rest compared), then the write-back path that render and export
+            # frames take, with its re-evaluation
             for f in self.warm + self.frames:
                 self.scene.frame_set(f)
                 dg = bpy.context.evaluated_depsgraph_get()
@@ -639,7 +732,7 @@ class Bench:
                 self.read_positions(bpy.context.evaluated_depsgraph_get())  # ... + re-evaluation
                 t3 = pc()
                 if f in self.frames:
-                    uf.append(t1 - t0)
+                    full.append(t1 - t0)
                     wb.append(t2 - t1)
                     rev.append(t3 - t2)
         finally:
@@ -647,7 +740,12 @@ class Bench:
         r = {"read_ms": ms(rd), "compute_ms": ms(cp), "write_ms": ms(wr)}
         r["eval_stage_ms"] = ms(base)
         r["update_face_ms"] = ms(uf)
-        r["overhead_ms"] = sub(r["update_face_ms"], sum(r[k] for k in ("read_ms", "compute_ms", "write_ms")))
+        for key in _PARTS:
+            r[f"handler_{key}_ms"] = ms([p.get(key, 0.0) for p in inside])
+        r["overhead_ms"] = ms([t - sum(p.values()) for t, p in zip(uf, inside)])
+        r["overhead_two_loops_ms"] = sub(r["update_face_ms"], sum(r[k] for k in ("read_ms", "compute_ms",
+                                                                                   "write_ms")))
+        r["update_scene_full_ms"] = ms(full)
         r["writeback_handler_ms"] = ms(wb)
         r["writeback_reeval_ms"] = ms(rev)
         r["write_refused_frames"] = refused[0]
@@ -664,7 +762,8 @@ class Bench:
             ev.attributes[bs.TENSION_ATTR].data.foreach_get("value", tension)
             tension_min.append(float(tension.min()))
 
-        paired = [c for c in CONFIGS if c != "base"]
+        paired = [c for c in CONFIGS if c != "base"
+                  and (not c.startswith("floor_maths") or c[len("floor_maths"):] in self.floor_plans)]
         times = {c: [] for c in paired}  # per configuration: its block's frame times, per repeat
         base = {c: [] for c in paired}  # the same for the base block next to it
         for rep in range(self.repeats):
@@ -702,9 +801,10 @@ class Bench:
         }
         eval_ms = ms(pooled_base)
         r = {"eval_ms": eval_ms, "eval_mean_ms": mean_ms(pooled_base)}
-        for name in ("tension", "displace", "displace_const", "floor"):
-            r[name + "_frame_ms"] = ms(pooled[name])
-            r[("" if name == "floor" else "gn_") + name + "_ms"] = median_or_none(diff[name])
+        for name in ("tension", "displace", "displace_const", "floor", "floor_maths", "floor_maths_pulling"):
+            if name in paired:
+                r[name + "_frame_ms"] = ms(pooled[name])
+                r[("" if name.startswith("floor") else "gn_") + name + "_ms"] = median_or_none(diff[name])
         r["tension_min"] = min(tension_min, default=None)
         for config, sfx in MUSCLE_CONFIGS:
             r["playback_ms" + sfx] = ms(pooled[config])
@@ -877,6 +977,7 @@ def run_size(label, target, args, rig, r):
             plan = b.plan()
             b.log_plan(plan, config)
             r["region_verts" + sfx] = int(len(plan.verts))
+            b.floor_plans[sfx] = (plan, muscle_objects.live_muscles(b.ob), np.zeros((b.n, 3), _F))
             if not sfx:
                 r["region_sizes"] = b.region_report(plan)
             r.update({k + sfx: v for k, v in b.measure_split(plan).items()})
@@ -894,6 +995,10 @@ def run_size(label, target, args, rig, r):
         per = [ratio(a, f) for a, f in zip(cost[config], floors)]
         r["stage_floor_ratio" + sfx] = median_or_none(per)
         r["per_repeat"]["stage_floor_ratio" + sfx] = per
+        if cost.get("floor_maths" + sfx):
+            per = [ratio(a, f) for a, f in zip(cost[config], cost["floor_maths" + sfx])]
+            r["stage_floor_maths_ratio" + sfx] = median_or_none(per)
+            r["per_repeat"]["stage_floor_maths_ratio" + sfx] = per
     for config, sfx in MUSCLE_CONFIGS:
         r.update(b.check_wrinkles(config, sfx))
     g = r.get
@@ -908,7 +1013,9 @@ def run_size(label, target, args, rig, r):
         f"(pulling {fmt(g('playback_ms_pulling'))} = x{fmt(g('playback_ratio_pulling'))})  "
         f"[{pc() - t0:.1f} s]")
     log(f"  => stage over its floor: stage_floor_ratio {fmt(g('stage_floor_ratio'))} (pulling "
-        f"{fmt(g('stage_floor_ratio_pulling'))}), overhead {fmt(g('overhead_ms'), '.3f')} ms (pulling "
+        f"{fmt(g('stage_floor_ratio_pulling'))}), over the floor with the maths in the frame "
+        f"{fmt(g('stage_floor_maths_ratio'))} (pulling {fmt(g('stage_floor_maths_ratio_pulling'))}), "
+        f"overhead {fmt(g('overhead_ms'), '.3f')} ms (pulling "
         f"{fmt(g('overhead_ms_pulling'), '.3f')})")
     log(f"  => floor (read + write + GN stage, no math) {fmt(g('floor_ms'))} ms: floor_ratio "
         f"{fmt(g('floor_ratio'))}, floor_displace_ratio {fmt(g('floor_displace_ratio'))}, playback "

@@ -180,8 +180,9 @@ def _write_in_place(state, ev, skin, offset):
     if np.array_equal(current, state.shown):
         return np.array_equal(new, current)  # not re-evaluated: only identical is fine
     pos.data.foreach_set("vector", new.reshape(-1))
-    if meshio.attribute(ev, stage.OFFSET_ATTR, "FLOAT_VECTOR") is not None:  # keep it consistent
-        meshio.write_vectors(ev, stage.OFFSET_ATTR, offset)
+    att = meshio.attribute(ev, stage.OFFSET_ATTR, "FLOAT_VECTOR")
+    if att is not None:  # keep it consistent
+        att.data.foreach_set("vector", offset.reshape(-1))
     state.shown = new
     return True
 

@@ -126,6 +126,9 @@ def _reads_skin(mod):
     return mod.type == "NODES" and mod.node_group is not None and bool(mod.node_group.get(READS_SKIN))
 
 
+_REORDERS = (TOPOLOGY_MODIFIERS | {"NODES"}) - {"SUBSURF"}  # after the stage: may renumber vertices
+
+
 def order_problem(ob, mod, evaluated_count):
     """Why the evaluated skin cannot be matched to the mesh's vertices, or ``None``.
 
@@ -134,11 +137,11 @@ def order_problem(ob, mod, evaluated_count):
     first, see ``meshio.read_vector_prefix``).
     """
     n = len(ob.data.vertices)
-    index = list(ob.modifiers).index(mod)
-    active = [m for m in ob.modifiers if m.show_viewport or m.show_render]
-    before = [m for m in active if list(ob.modifiers).index(m) < index and m.type in TOPOLOGY_MODIFIERS]
-    reorders = (TOPOLOGY_MODIFIERS | {"NODES"}) - {"SUBSURF"}
-    after = [m for m in active if list(ob.modifiers).index(m) > index and m.type in reorders]
+    mods = list(ob.modifiers)
+    index = mods.index(mod)
+    active = [(i, m) for i, m in enumerate(mods) if m.show_viewport or m.show_render]
+    before = [m for i, m in active if i < index and m.type in TOPOLOGY_MODIFIERS]
+    after = [m for i, m in active if i > index and m.type in _REORDERS]
     if before:
         return (f'The modifier "{before[0].name}" comes before Wrinkles and changes the vertex count: '
                 "move Wrinkles above it, or apply it")
