@@ -403,7 +403,7 @@ class Bench:
         self.mods = {}
         self.stage_mod = None
         self.muscles = []
-        self._floor_skin = self._floor_offset = self._floor_plan = None
+        self._floor_skin = self._floor_offset = self._floor_maths = None
         self.handler(True)
 
     # -- scene -------------------------------------------------------------
@@ -418,9 +418,9 @@ class Bench:
         self.pos_buf = np.empty(self.n * 3, _F)
         self._floor_skin = np.empty(self.n * 3, _F)
         self._floor_offset = np.zeros(self.n * 3, _F)
-        # "" / "_pulling" -> (the muscles' plan of that configuration, its live muscles in the
-        # plan's order, an offset buffer of its own), for the floor_maths configurations
-        self.floor_plans = {}
+        # "" / "_pulling" -> the maths of that configuration's muscles (muscle_maths), for the
+        # floor_maths configurations
+        self.floor_maths = {}
         self.uv_name, made = bs.ensure_uv_map(ob)
         if self.rig_kind == "arkit":
             keys, moved = bs.add_arkit_keys(ob, self.landmarks)
@@ -489,11 +489,23 @@ class Bench:
             if m.ewrinkles_muscle.wrinkles_only == pulling:
                 m.ewrinkles_muscle.wrinkles_only = not pulling
 
-    def floor_handler(self, on, plan=None):
+    def floor_handler(self, on, maths=None):
         """The ``floor`` configuration's handler in or out (see the module doc); with
-        ``plan``, the ``floor_maths`` one (the same plus the muscles' maths of ``plan``)."""
-        self._floor_plan = plan
+        ``maths``, a function of the skin (N, 3) that returns the offsets (N, 3), the
+        ``floor_maths`` one: the same with those offsets added."""
+        self._floor_maths = maths
         self._hook(self._floor, on)
+
+    def muscle_maths(self, plan):
+        """The muscles' maths of ``plan`` alone, for :meth:`floor_handler`: their
+        contractions read and ``system.evaluate``, into a buffer of its own."""
+        live = muscle_objects.live_muscles(self.ob)
+        out = np.zeros((self.n, 3), _F)
+
+        def maths(skin):
+            contraction = np.array([m.ewrinkles_muscle.contraction for m in live], np.float64)
+            return system.evaluate(plan, skin, contraction, self.ob.ewrinkles_face.strength, out=out)
+        return maths
 
     def _floor(self, scene, depsgraph):
         """The bare minimum of a NumPy stage: read the skin the Wrinkles modifier stored,
@@ -501,11 +513,8 @@ class Bench:
         ev = self.ob.evaluated_get(depsgraph).data
         skin = self._floor_skin
         ev.attributes[stage.SKIN_ATTR].data.foreach_get("vector", skin)
-        if self._floor_plan is not None:  # floor_maths: the maths alone, no bookkeeping
-            plan, live, out = self._floor_plan
-            contraction = np.array([m.ewrinkles_muscle.contraction for m in live], np.float64)
-            system.evaluate(plan, skin.reshape(-1, 3), contraction, self.ob.ewrinkles_face.strength, out=out)
-            np.add(skin, out.reshape(-1), out=skin)
+        if self._floor_maths is not None:  # floor_maths: the maths alone, no bookkeeping
+            np.add(skin, self._floor_maths(skin.reshape(-1, 3)).reshape(-1), out=skin)
         else:
             np.add(skin, self._floor_offset, out=skin)
         ev.attributes["position"].data.foreach_set("vector", skin)
@@ -529,7 +538,7 @@ class Bench:
         if config == "floor":
             self.floor_handler(True)
         elif config.startswith("floor_maths"):
-            self.floor_handler(True, self.floor_plans[config[len("floor_maths"):]])
+            self.floor_handler(True, self.floor_maths[config[len("floor_maths"):]])
 
     # -- the references: GN tension and GN displacement by tension (untimed setup) --------
     def add_references(self):
@@ -763,7 +772,7 @@ class Bench:
             tension_min.append(float(tension.min()))
 
         paired = [c for c in CONFIGS if c != "base"
-                  and (not c.startswith("floor_maths") or c[len("floor_maths"):] in self.floor_plans)]
+                  and (not c.startswith("floor_maths") or c[len("floor_maths"):] in self.floor_maths)]
         times = {c: [] for c in paired}  # per configuration: its block's frame times, per repeat
         base = {c: [] for c in paired}  # the same for the base block next to it
         for rep in range(self.repeats):
@@ -977,7 +986,7 @@ def run_size(label, target, args, rig, r):
             plan = b.plan()
             b.log_plan(plan, config)
             r["region_verts" + sfx] = int(len(plan.verts))
-            b.floor_plans[sfx] = (plan, muscle_objects.live_muscles(b.ob), np.zeros((b.n, 3), _F))
+            b.floor_maths[sfx] = b.muscle_maths(plan)
             if not sfx:
                 r["region_sizes"] = b.region_report(plan)
             r.update({k + sfx: v for k, v in b.measure_split(plan).items()})
