@@ -65,7 +65,7 @@ def main(argv):
     os.dup2(2, 1)
     from sample_scenes import showcase
     from sample_scenes.lib import scene_setup
-    from wrinkle_addon.glue import frame as stage_frame
+    from wrinkle_addon.glue import pipeline
 
     addon_utils.enable("wrinkle_addon", default_set=True)
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
@@ -75,7 +75,7 @@ def main(argv):
     scene = bpy.context.scene
     scene_setup.setup_cycles(scene, resolution=args.size, samples=args.samples, denoise=False)
     frames = [int(f) for f in args.frames.split(",")]
-    handler = stage_frame.on_frame_change_post
+    handler = pipeline.on_frame_change_post
     with_s, without_s, shares = [], [], []
     with tempfile.TemporaryDirectory() as tmp:
         _render(scene, frames[0], tmp)  # warm-up: kernels, BVH, images
@@ -85,14 +85,14 @@ def main(argv):
                 for live in ((True, False) if r % 2 == 0 else (False, True)):
                     if not live:
                         bpy.app.handlers.frame_change_post.remove(handler)
-                    stage_frame.stage_seconds[0] = 0.0
+                    pipeline.stage_seconds[0] = 0.0
                     try:
                         pair[live] = _render(scene, f, tmp)
                     finally:
                         if not live:
                             bpy.app.handlers.frame_change_post.append(handler)
                     if live:
-                        shares.append(stage_frame.stage_seconds[0] / pair[live])
+                        shares.append(pipeline.stage_seconds[0] / pair[live])
                 with_s.append(pair[True])
                 without_s.append(pair[False])
                 log(f"round {r + 1}, frame {f}: {pair[True]:.1f} s with, {pair[False]:.1f} s without")

@@ -96,33 +96,9 @@ def render(scene, path):
     bpy.ops.render.render(write_still=True)
 
 
-def contact_sheet(rows, path):
-    """Stack ``rows`` of image files side by side (a row per shot) into one PNG."""
-    tiles = []
-    for files in rows:
-        imgs = []
-        for f in files:
-            im = bpy.data.images.load(str(f))
-            a = np.array(im.pixels[:], dtype=np.float32).reshape(im.size[1], im.size[0], 4)
-            bpy.data.images.remove(im)
-            imgs.append(a)
-        gap = np.ones((imgs[0].shape[0], 4, 4), np.float32)
-        tiles.append(np.concatenate(sum(([a, gap] for a in imgs), [])[:-1], axis=1))
-    width = max(t.shape[1] for t in tiles)
-    tiles = [np.pad(t, ((0, 0), (0, width - t.shape[1]), (0, 0)), constant_values=1.0) for t in tiles]
-    gap = np.ones((4, width, 4), np.float32)
-    sheet = np.concatenate(sum(([t, gap] for t in tiles[::-1]), [])[:-1], axis=0)  # bottom row first
-    im = bpy.data.images.new("sheet", sheet.shape[1], sheet.shape[0], alpha=True)
-    im.pixels.foreach_set(sheet.ravel())
-    im.filepath_raw = str(path)
-    im.file_format = "PNG"
-    im.save()
-    bpy.data.images.remove(im)
-
-
 def main(argv):
     from benchmarks import realism
-    from sample_scenes.lib import ict, scene_setup
+    from sample_scenes.lib import ict, rendering, scene_setup
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", required=True, help="the folder for the PNGs")
@@ -169,7 +145,7 @@ def main(argv):
             log(f"{i + 1}/{len(shots)} {shot}: {secs:.1f} s")
             print(json.dumps({"face": name, "shot": shot, "files": [str(f) for f in files],
                               "render_s": round(secs, 1)}), flush=True)
-        contact_sheet(rows, out / f"{name}_closeups.png")
+        rendering.contact_sheet(rows, out / f"{name}_closeups.png", gap=4)
         log(f"contact sheet {out / f'{name}_closeups.png'}")
     finally:
         bpy.ops.wm.read_factory_settings(use_empty=True)  # bpy 4.5 hangs at exit otherwise

@@ -6,123 +6,8 @@ Run:  .venv45/bin/python benchmarks/fine_wrinkles.py --carve-only   (no bpy need
       options: --mesh face|square  --sizes 512,1024,2048  --repeats 3  --seed 1
                --curves 20  --curve-verts 50000  --curve-frames 40  --curve-warm 5  --curve-repeats 6
 
-``carve_s``
-    Wall time (``time.perf_counter``) of ``core.bando.carve.carve`` at each image size,
-    everything included: rasterising the mapped mesh, seeding (random and fill phases),
-    growing the furrows in lockstep, and drawing the occupancy and height images.  The
-    median of ``--repeats`` runs for sizes up to 1024, one run above (2048 takes longest
-    and varies least).  The default ``scale = R / 512`` carves the same furrows in texture
-    space at every size (the paper's 512 x 512 layout, finer pixels), so the figures
-    compare like for like.  The paper reports about 10 s at 512 x 512 (XEON 2 GHz).
-``coverage`` / ``furrows``
-    Of the last run at each size: the fraction of the mesh's pixels the furrows lower,
-    and the number of furrows.
-
-The mapped mesh (``--mesh``):
-
-``face`` (default)
-    A face-like UV layout: a 41 x 41 vertex grid cut to an oval with holes for the eyes
-    and the mouth, plus a separate small island (an ear); the field runs across the
-    forehead and bends around the cheeks, its magnitude 0.25 at the chin to 0.75 on top.
-``square``
-    Two triangles over the whole unit square, m = 0.5 everywhere, the direction turning
-    slowly across it (by 1.5 rad corner to corner).
-
-``curves_frame_ms`` (not with ``--carve-only``: it needs bpy)
-    What ``--curves`` (20) large-scale wrinkle curves (§6-7) add to a frame of a
-    ``--curve-verts`` (50k) vertex face, on top of the output stage.  The face and its rig
-    are ``benchmarks/frame_update.py``'s (``Bench.build``: headgen's head with its UV map,
-    the "BrowsUp" shape key and the jaw bone, ``--rig light``), with Enable Wrinkles and the
-    curves (``place_curves``: 2 x 5 on the forehead, 2 x 5 on the cheeks, each about 3.5 cm
-    long; d 3 mm, w 2.5 mm, r 0.3, snapped to the skin).  Two configurations of that same
-    scene: *none*, every curve disabled (the curve source is active and the stage runs:
-    skin read, combine, in-place write, with nothing to add), and *curves*, all 20 on.  Each
-    block times ``Bench.frame_loop`` (frame_set + evaluated depsgraph + reading the
-    positions, the add-on's frame handler in, the viewport's in-place path) over
-    ``--curve-frames`` new frames after ``--curve-warm`` warm-up frames; the switch
-    between configurations rebuilds the curves' static plan once, before the warm-up (a
-    full update: ``set_curves``).  The blocks are interleaved none, curves, then curves,
-    none, ... for ``--curve-repeats`` repeats.  ``curves_frame_ms`` is the median over the
-    repeats of (median frame of the curves block - median frame of the none block next to
-    it); ``curves`` has the detail: both pooled medians, the per-repeat figures, the curves'
-    footprint (vertices moved), their (curve, vertex) entries, the mapped patch the
-    shrinkage is measured on, the largest offset after the curves blocks (and after the
-    none blocks: 0), and the time of one rebuild of the static plan (what an edit of a
-    curve costs).
-``curves_floor_ratio``
-    The curves' stage over its floor, from two more configurations in the same interleaved
-    blocks: *base*, Blender alone (the Wrinkles modifier hidden, the frame handler out), and
-    *floor*, the Wrinkles modifier with ``frame_update.py``'s bare handler (read the skin, write
-    the positions, no maths) in place of the add-on's.  Per repeat, (curves - base) /
-    ((floor - base) + the curves' arithmetic alone: ``frame_breakdown_ms.floor.total`` and the
-    normals under the heights, ``curve_combine``); the median over the repeats.  Goal: at most
-    1.3.
-``fine_attributes_frame_ms``
-    What the fine wrinkles (§5, §7; carved at 512 x 512) add to a frame of the same face on
-    top of the curves: the frames with the curves and the fine wrinkles (their *Fine
-    Wrinkles* modifier shown, which measures the shrinkage across both fields in Blender's
-    own evaluation) against those with the curves alone (the modifier hidden, the source
-    off), in the same interleaved blocks.
-``curves_and_fine_frame_ms``
-    Both together on top of the stage: the frames with curves and fine wrinkles against
-    those with neither.
-``frame_breakdown_ms``
-    Where the curves' time goes: each part timed alone (``time.perf_counter``, ms) on the
-    same face with the add-on's frame handler removed, right after ``frame_set`` evaluated a
-    new frame (``--curve-warm`` untimed frames first, then the ``--curve-frames`` frames, in
-    ``--curve-repeats`` rounds; each figure the median over all its frames), the fine
-    wrinkles off (they cost the handler nothing):
-
-    ``curve_heights``
-        The curve source's ``contribute``: ``core.bando.large.heights``, the shrinkage across
-        each curve at its entries, ``M(s)`` and the sum at the footprint.
-    ``curve_combine``
-        ``core.combine.combine`` with the curves' heights: the skin normals at the raised
-        vertices and the offsets along them (with no curve the stage's plan is empty).
-    ``handler_curves`` / ``handler_none``
-        The whole ``update_scene(in_place=True)`` call as the viewport handler makes it (on
-        the frame it evaluated), with the curves on / off.
-    ``stage_overhead``
-        handler_curves - handler_none - the two parts above: whatever else the add-on adds
-        per frame for the curves (Python bookkeeping).  Derived from four medians, so it
-        carries their noise (and may come out slightly negative).
-    ``floor``
-        The bare minimum of the curves' arithmetic, in minimal NumPy in this benchmark
-        (``Floor``: preallocated float32 buffers, the add-on's static plan, no checks):
-        ``edges``, one gather of both ends of each edge the curves need (``edges_measured``,
-        each once) and its length; ``heights``, the shrinkage across each curve from those
-        lengths (eq. 4), ``M(s)`` (eq. 5) and the sum at the footprint; ``total``.  The
-        skin normals under the heights (``curve_combine``) are left out.  The floor's values
-        are checked against the add-on's.
-
-    These run after ``frame_set`` returned; inside the frame handler, right after Blender's
-    own evaluation, the same NumPy work is measured to take longer (colder caches).
-
-``fine_gn_ratio``
-    The fine wrinkles' per-frame cost against the GN tension reference's on the same face,
-    measured side by side: a fresh ``--curve-verts`` face of the same rig with fine wrinkles
-    carved and no Enable Wrinkles (shading only), plus ``benchmarks/_bench_scene.py``'s
-    tension modifier (``frame_update.py``'s ``tension``).  Three configurations interleaved
-    (base, fine, tension, then reversed) for ``--curve-repeats`` repeats, each block
-    ``Bench.frame_loop`` over ``--curve-frames`` frames after ``--curve-warm`` warm-up
-    frames: *base*, neither; *fine*, the *Fine Wrinkles* modifier shown and the source
-    active (the handler's own share included); *tension*, the tension modifier alone.  The
-    figure is the median over the repeats of (fine - base) / (tension - base); ``fine_gn``
-    has both costs, the base frame, the largest shrinkage seen and the per-repeat figures.
-    Before timing, the tree's shrinkage is checked against ``core.bando.fine.shrinkages`` on
-    three posed frames (at most 1e-6 apart, or the benchmark fails).
-
-Output: progress on stderr (the shared benchmark helpers log theirs on stdout), one JSON
-object on the last line of stdout::
-
-    {"carve_s": {"512": ..., "1024": ..., "2048": ...}, "coverage": {...}, "furrows": {...},
-     "mesh": "face", "repeats": 3, "curves_frame_ms": ..., "curves": {...},
-     "fine_attributes_frame_ms": ..., "curves_and_fine_frame_ms": ...,
-     "frame_breakdown_ms": {"curve_heights": ..., ..., "floor": {"edges": ..., ...}}, "bpy": "4.5.4",
-     "fine_gn_ratio": ..., "fine_gn": {...}}
-
-With ``--carve-only`` the script imports no bpy and the keys from ``curves_frame_ms`` on
-are left out.
+What it builds, how it measures and what every figure of its JSON means:
+docs/benchmarks/fine_wrinkles.md.
 """
 
 import argparse
@@ -158,7 +43,7 @@ def square_mesh():
 
 
 def face_mesh(n=41):
-    """A face-like UV layout with holes and a second island (see the module docstring)."""
+    """A face-like UV layout with holes and a second island (docs/benchmarks/fine_wrinkles.md)."""
     u, v = np.meshgrid(np.linspace(0.02, 0.98, n), np.linspace(0.02, 0.98, n))
     uv = np.stack([u.ravel(), v.ravel()], 1)
     idx = np.arange(n * n).reshape(n, n)
@@ -182,7 +67,7 @@ MESHES = {"face": face_mesh, "square": square_mesh}
 
 
 def carve_s(mesh, sizes, repeats, seed):
-    """The ``carve_s`` figures (see the module docstring) and, per size, the coverage and
+    """The ``carve_s`` figures (docs/benchmarks/fine_wrinkles.md) and, per size, the coverage and
     the furrow count of the last run."""
     from wrinkle_addon.core.bando import carve as bando_carve
 
@@ -256,7 +141,7 @@ def add_fine_attributes(bench):
 
 
 class Floor:
-    """The floor of the curves' frame (see the module docstring): the bare minimum NumPy
+    """The floor of the curves' frame (docs/benchmarks/fine_wrinkles.md): the bare minimum NumPy
     work, on the add-on's own static plan (``large.LargePlan``), in preallocated float32
     buffers: each edge the curves need gathered once, a row with s = 0 measuring no edge of
     its own."""
@@ -315,7 +200,7 @@ class Floor:
 
 
 def frame_breakdown(bench, face, configure, repeats):
-    """The ``frame_breakdown_ms`` figures (see the module docstring), with the add-on's frame
+    """The ``frame_breakdown_ms`` figures (docs/benchmarks/fine_wrinkles.md), with the add-on's frame
     handler removed: each part timed alone on freshly evaluated frames of the 50k face.
     ``configure(config)`` switches the scene to ``"none"`` or ``"curves"``."""
     import bpy
@@ -335,7 +220,7 @@ def frame_breakdown(bench, face, configure, repeats):
     def configure_curves():
         """The curves on; the stage's state and static data (rebuilt by each switch)."""
         configure("curves")
-        got["state"] = state = pipeline._cache[face.session_uid]
+        got["state"] = state = pipeline.face_state(face)
         got["statics"] = {s.name: state.statics[s.name][1] for s in active}
         return got["statics"]
 
@@ -371,7 +256,7 @@ def frame_breakdown(bench, face, configure, repeats):
         def each(ev, record):
             dg = bpy.context.evaluated_depsgraph_get()
             t = time.perf_counter()
-            pipeline.update_scene(scene, dg, in_place=True, changes=pipeline._changes(dg))
+            pipeline.update_scene(scene, dg, in_place=True, changes=pipeline.updated_ids(dg))
             if record:
                 times[key].append(time.perf_counter() - t)
         return each
@@ -405,14 +290,14 @@ def frame_breakdown(bench, face, configure, repeats):
 
 
 def curves_frame_ms(n_curves, target, frames, warm, repeats):
-    """The ``curves_frame_ms`` figure and its detail (see the module docstring)."""
+    """The ``curves_frame_ms`` figure and its detail (docs/benchmarks/fine_wrinkles.md)."""
     import bpy
     import frame_update as fu  # bpy, the add-on enabled; its Bench builds and times the face
 
     from wrinkle_addon.glue.bando import fine_tree
 
     fu.bs.clear_scene()
-    fu.pipeline._cache.clear()
+    fu.pipeline.forget_all()
     bench = fu.Bench(target, warm, frames, "light", repeats)
     built = bench.build()
     face = bench.ob
@@ -442,7 +327,7 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
                 ob.ewrinkles_curve.enabled = on
         stage_mod.show_viewport = True
         fu.pipeline.refresh_all(bpy.context)
-        plan = fu.pipeline._cache[face.session_uid].statics["curves"][1].plan
+        plan = fu.pipeline.face_state(face).statics["curves"][1].plan
         got = 0 if plan is None else len(plan.curves.lengths)
         if got != (n_curves if on else 0):
             raise RuntimeError(f"{got} curves in the plan after switching them {'on' if on else 'off'}")
@@ -452,7 +337,7 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
     t = time.perf_counter()
     bench.frame_loop(bench.warm)
     problem = fu.pipeline.status_of(face)
-    state = fu.pipeline._cache[face.session_uid]
+    state = fu.pipeline.face_state(face)
     static = state.statics["curves"][1]
     if static.plan is None or len(static.plan.curves.lengths) != n_curves:
         raise RuntimeError(f"the {n_curves} curves did not all make it into the plan: "
@@ -467,7 +352,7 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
     try:
         for _ in range(3):
             c = time.perf_counter()
-            fu.pipeline._cache[face.session_uid].statics.pop("curves")
+            fu.pipeline.face_state(face).statics.pop("curves")
             fu.pipeline.update_scene(bench.scene, bpy.context.evaluated_depsgraph_get())
             rebuilds.append(time.perf_counter() - c)
     except Exception as exc:  # noqa: BLE001 - the add-on's internals changed: report, go on
@@ -495,7 +380,7 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
                 continue
             # untimed: the offsets the stage computed on a few more frames
             bench.frame_loop(bench.frames[:3], lambda _ev, c=config: heights[c].append(
-                float(np.abs(fu.pipeline._cache[face.session_uid].out).max())))
+                float(np.abs(fu.pipeline.face_state(face).out).max())))
         log(f"curves: repeat {rep + 1}/{repeats}: none {fu.ms(times['none'][-1]):.2f} ms, "
             f"curves {fu.ms(times['curves'][-1]):.2f} ms, with fine {fu.ms(times['all'][-1]):.2f} ms, "
             f"Blender alone {fu.ms(times['base'][-1]):.2f} ms, bare floor {fu.ms(times['floor'][-1]):.2f} ms")
@@ -548,7 +433,7 @@ def curves_frame_ms(n_curves, target, frames, warm, repeats):
 
 
 def fine_gn(target, frames, warm, repeats):
-    """The ``fine_gn_ratio`` figure and its detail (see the module docstring)."""
+    """The ``fine_gn_ratio`` figure and its detail (docs/benchmarks/fine_wrinkles.md)."""
     import bpy
     import frame_update as fu
 
@@ -556,7 +441,7 @@ def fine_gn(target, frames, warm, repeats):
     from wrinkle_addon.glue.bando import fine_tree
 
     fu.bs.clear_scene()
-    fu.pipeline._cache.clear()
+    fu.pipeline.forget_all()
     bench = fu.Bench(target, warm, frames, "light", repeats)
     bench.build()
     face = bench.ob
@@ -578,7 +463,7 @@ def fine_gn(target, frames, warm, repeats):
     for f in bench.frames[:3]:
         bench.scene.frame_set(f)
         got = fine_tree.shrinkage(face)
-        plan = fu.pipeline._cache[face.session_uid].statics["fine_wrinkles"][1].plan
+        plan = fu.pipeline.face_state(face).statics["fine_wrinkles"][1].plan
         skin = fu.meshio.read_vectors(face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data,
                                       "position")
         err = float(np.abs(got - core_fine.shrinkages(plan, skin)).max())

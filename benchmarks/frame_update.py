@@ -4,244 +4,8 @@
 Run:  .venv45/bin/python benchmarks/frame_update.py   (or .venv52)
       options: --rig light|arkit|both  --sizes 10k,50k  --frames 40  --warm 5  --repeats 3
 
-For heads of about 10k, 50k and 200k vertices (``sample_scenes/lib/headgen``,
-which gives the head its UV map "UVMap"; the sphere fallback gets a
-cylindrical one, ``_bench_scene.ensure_uv_map``) the script builds one of two
-facial rigs (``--rig``; ``both`` runs arkit, then light, in one process):
-
-``light`` (the default)
-    A "BrowsUp" shape key (brows up 6 mm, forehead compressed, animated
-    0 -> 1 -> 0 -> 1) and an armature whose "Jaw" bone (lower face weighted by
-    distance from the chin) opens 0 -> 15 deg -> 0 -> 15 deg.
-``arkit``
-    A production-like face: 52 shape keys (the ARKit blendshape count), i.e.
-    "BrowsUp" plus 51 regional keys, each a smooth Gaussian bump of 2-5 mm
-    (sigma 6-9 mm) over a different region of the face front, directions
-    alternating, built deterministically (fixed seed) in NumPy
-    (``_bench_scene.add_arkit_keys``).  All 52 are keyframed on smooth curves
-    with different periods and phases that never reach 0 (Blender skips keys at
-    0), so every frame blends all of them; plus the same Jaw bone.
-
-The face then gets the full muscle set (``build_muscle_set``: 13 roles, 11 of them
-mirrored, 24 muscles).  Every muscle's contraction is keyframed and never 0 on any frame
-(0.05 at its lows): Frontalis inner and major 0.05 -> 1 -> 0.05 -> 1 and
-Frontalis outer 0.05 -> 0.8 -> 0.05 -> 0.8 at frames 1, 21, 41, 61; Corrugator
-0.05 -> 1 -> 0.05 -> 1 at 1, 11, 31, 41; every other role 0.05 -> 0.6 -> 0.05 -> 0.6
-at 1, 16, 36, 56.  The stage is measured in two muscle configurations on the same
-head and rig:
-
-*wrinkles-only* (the unsuffixed figures)
-    every muscle's ``ewrinkles_muscle.wrinkles_only`` on: no Waters pull, only
-    wrinkles from the compression the shape keys and the jaw bone cause (the
-    contractions are then unused).  This is how rigged faces use the add-on.
-*pulling* (the figures suffixed ``_pulling``)
-    ``wrinkles_only`` off on every muscle: all 20 pull (Waters) on every frame,
-    and wrinkle where that pull and the rig compress the skin.
-
-Every timed frame is a new frame, after ``--warm`` warm-up frames, timed over
-``--frames`` frames (``time.perf_counter``): one *block* is warm frames 1..warm,
-then timed frames warm+1..warm+frames, of one configuration.  Every frame time
-is the MEDIAN over the frames (this machine is shared; means are in
-``*_mean_ms`` where useful).
-
-The interleaved measurement.  One *repeat* runs, for each of the eight configurations
-of the same scene, a base block right next to that configuration's block:
-
-    base wrinkles  base tension  base pulling  base displace  base displace_const  base floor
-    base floor_maths  base floor_maths_pulling
-
-and the next repeat runs the same sequence reversed (each configuration's block
-then comes just before its base block), ``--repeats`` times (default 3, at least
-3).  Every configuration is so compared with a base block measured next to it:
-load that drifts over seconds on this shared machine cancels in the difference.
-Each block times the same loop:
-``scene.frame_set(f)`` + ``evaluated_depsgraph_get()`` + reading the evaluated
-positions with ``foreach_get`` (+ reading ``tension`` in the tension blocks):
-
-``base``            Blender alone: the add-on's frame handler removed, its
-                    Wrinkles modifier and the three reference modifiers off.
-``tension``         the GN tension reference on (below), nothing else.
-``displace``        the GN displacement reference on (textured height).
-``displace_const``  the GN displacement reference with a constant height on.
-``floor``           the floor of any NumPy stage: the Wrinkles modifier on and, in
-                    place of the add-on's handler, a bare one that reads the
-                    stored skin, adds a zero offset and writes the positions into
-                    the evaluated mesh (``foreach_get`` + ``foreach_set`` +
-                    ``Mesh.update()``), with no wrinkle math and no checks.
-``floor_maths``     the floor's bare handler doing the muscles' maths as well, in the
-                    frame: ``core.muscles.system.evaluate`` of the wrinkles-only plan on
-                    the skin it read, its offsets added before the write; no change
-                    detection, no checks, no other source.  ``floor_maths_pulling``: the
-                    same with the pulling plan.  (Left out when the hand-timed parts
-                    below failed: they capture the plans.)
-``wrinkles``        the Wrinkles modifier on and the frame handler in, muscles
-                    wrinkles-only: the add-on as the viewport runs it.
-``pulling``         the same with every muscle pulling.
-
-Switching between wrinkles-only and pulling rebuilds the muscles' static plan; that
-happens on the block's first warm-up frame, never in a timed one.
-
-Timed figures (from those blocks).  A frame time ("pooled") is the median over that
-configuration's timed frames of all repeats.  A cost (what a configuration adds to
-a frame, ``gn_*_ms`` and ``stage_ms*``) is the median over the repeats of d_r, its
-block's median frame time minus that of the base block next to it (see Ratios
-below), so it is not exactly the difference of the pooled frame times:
-
-``eval_ms`` / ``eval_mean_ms``
-    Blender alone: pooled median (mean) of all base blocks.  This is shape
-    keys + armature + the animation system for the scene.
-``gn_tension_ms`` / ``tension_frame_ms``
-    The native alternative users build today to drive wrinkle maps: a Geometry
-    Nodes modifier after the armature that computes, per edge, current length /
-    rest length (rest from a ``rest_position`` point attribute stored once on
-    the mesh, fetched with Edge Vertices + Evaluate at Index), averaged onto the
-    points (Evaluate on Domain EDGE, stored on POINT) as the float attribute
-    ``tension``.  ``tension_frame_ms``: the pooled frame time of the tension
-    blocks; ``gn_tension_ms``: its cost, median of d_r(tension).
-``gn_displace_ms`` / ``displace_frame_ms``
-    What users build today for geometric wrinkles from tension: a Geometry Nodes
-    modifier computing the same tension field, then Set Position offsetting each
-    point along its normal (Normal node) by height * max(0, 1 - tension), the
-    height sampled by an Image Texture node (linear, repeat) from a 1024^2 float
-    image of wrinkle-like heights (``_bench_scene.make_height_image``, 0..10 mm,
-    Non-Color) at the point's UV (the UV map read on POINT, i.e. averaged over
-    the point's corners).  ``displace_frame_ms``: the pooled frame time of the
-    displace blocks; ``gn_displace_ms``: its cost, median of d_r(displace).
-``gn_displace_const_ms`` / ``displace_const_frame_ms``
-    The same with a constant height (5 mm) instead of the texture: the cost of
-    the tension and the Set Position alone (median of d_r(displace_const)).
-``playback_ms`` / ``playback_mean_ms`` / ``playback_base_ms`` / ``stage_ms``
-    ``playback_ms``: pooled median (mean) of the wrinkles blocks.
-    ``playback_base_ms``: the base blocks, i.e. the same number as ``eval_ms``
-    (kept as its own key).  ``stage_ms``: what wrinkles add to a frame, median
-    of d_r(wrinkles), measured exactly like ``gn_tension_ms`` (the GN stage
-    inside the evaluation, the handler, the in-place write).
-``playback_ms_pulling`` / ``playback_mean_ms_pulling`` / ``stage_ms_pulling``
-    The same from the pulling blocks.
-``floor_ms`` / ``floor_frame_ms``
-    The cost of the floor configuration (median of d_r(floor)) and its pooled
-    frame time: what reading and writing the face and the GN output stage cost
-    before any wrinkle is computed.  No NumPy stage can cost less.
-``floor_maths_ms`` / ``floor_maths_frame_ms`` (and ``_pulling``)
-    The same for the floor_maths configurations: the floor plus the maths.
-
-Ratios, every one the MEDIAN OF PER-REPEAT RATIOS: in repeat r, m_r(config) is
-the median frame time of the configuration's block and b_r(config) that of the
-base block next to it, and d_r(config) = m_r(config) - b_r(config); a ratio is
-computed per repeat and the median taken over the repeats (so a ratio is not
-exactly the quotient of the costs above).  A repeat whose denominator
-is <= 0 (noise larger than the reference) gives no ratio and is left out of the
-median (of two values left, the median is their mean); a ratio with no repeat
-left is null (n/a).  The per-repeat values are in ``per_repeat``.
-
-``gn_ratio``                 d_r(wrinkles) / d_r(tension)
-``gn_ratio_pulling``         d_r(pulling) / d_r(tension)
-``gn_displace_ratio``        d_r(wrinkles) / d_r(displace)
-``playback_ratio``           m_r(wrinkles) / b_r(wrinkles)
-``playback_ratio_pulling``   m_r(pulling) / b_r(pulling)
-``floor_ratio``              d_r(floor) / d_r(tension)
-``floor_displace_ratio``     d_r(floor) / d_r(displace)
-``stage_floor_ratio``        d_r(wrinkles) / (d_r(floor) + ``compute_tight_loop_ms``): the
-                             stage over its own NumPy floor, the bare handler plus the
-                             muscles' arithmetic alone in a tight loop (``_pulling``: of the
-                             pulling blocks, with the pulling plan's tight loop)
-``stage_floor_maths_ratio``  d_r(wrinkles) / d_r(floor_maths): the stage over the same maths
-                             run in the frame with no bookkeeping, so both run on the caches
-                             Blender's evaluation leaves (``_pulling``: d_r(pulling) /
-                             d_r(floor_maths_pulling))
-``playback_ratio_floor``     m_r(floor) / b_r(floor)
-``per_repeat``               ``frame_ms``: m_r, ``base_ms``: b_r and
-                             ``cost_ms``: d_r, per configuration (a list each,
-                             one entry per repeat, in repeat order); and each
-                             ratio above as its list of per-repeat values
-                             (null where left out).
-
-The handler's parts, timed by hand in each muscle configuration (keys unsuffixed
-for wrinkles-only, suffixed ``_pulling`` for pulling), with the add-on's handler
-removed, calling the functions it calls:
-
-``read_ms`` / ``compute_ms`` / ``write_ms``
-    ``read_ms``: ``meshio.read_vector_prefix`` of ``wrinkle_skin`` from the
-    evaluated mesh.  ``compute_ms``: ``core.muscles.system.evaluate`` (the
-    muscles alone through ``core.combine``; the handler's own path may differ).
-    ``write_ms``: reading the evaluated positions into the face state
-    and ``pipeline._write_in_place``: the check that Blender re-evaluated the
-    face, the ``foreach_set`` of ``skin + offset`` into the evaluated mesh's
-    positions (and its ``wrinkle_offset``), and ``Mesh.update()`` so its normals
-    are recomputed.  No second evaluation follows.  ``write_refused_frames``:
-    timed frames on which ``_write_in_place`` declined (should be 0).
-``update_face_ms`` / ``overhead_ms`` / ``update_scene_full_ms``
-    ``update_face_ms``: the add-on's frame handler as the viewport runs it, called
-    by Blender after each ``frame_set`` with the frame's depsgraph and timed by its
-    own clock (``pipeline.stage_seconds``): the IDs Blender updated (change
-    detection), the scene scan, the checks, the sources' static data (kept when
-    the updated IDs cannot have changed it), the contractions, the maths and the
-    in-place write.  ``handler_read_ms``, ``handler_compute_ms`` and
-    ``handler_write_ms``: the skin read, the maths (the sources' contributions and
-    ``core.combine``) and the in-place write (with the ``Mesh.update()`` after the
-    shading values), timed inside the same calls (the functions wrapped for the
-    block).  ``overhead_ms``: per frame, the handler's time minus those three, the
-    median over the frames: everything the handler spends beyond the maths and the
-    writes, change detection included.  ``overhead_two_loops_ms`` is the older
-    figure, update_face_ms - (read + compute + write) of the separate loop above
-    (its compute runs ``system.evaluate``, so it is noisier).
-    ``update_scene_full_ms``: ``pipeline.update_scene(in_place=True)`` called with
-    no list of updated IDs, the full check that edits and refreshes run (every
-    static key computed, the rest positions compared); not a playback cost.
-``writeback_handler_ms`` / ``writeback_reeval_ms``
-    The other path, taken by render and export frames: ``update_scene`` writing
-    ``wrinkle_offset`` into the original mesh and tagging it, then the second
-    evaluation of the whole modifier stack that the tag causes.  Reported for
-    comparison; it does not enter playback.
-``eval_stage_ms``
-    frame_set + read with the Wrinkles modifier present but the handler
-    removed: what the GN output stage alone costs inside the normal evaluation.
-``region_verts`` (``region_verts_pulling``)
-    ``len(plan.verts)``: vertices the per-frame NumPy touches (regions, their
-    edges' and triangles' vertices and the Waters areas of influence).
-    ``region_sizes``: the wrinkling region of each muscle.
-``compute_tight_loop_ms``
-    ``core.muscles.system.evaluate`` called 40 times in a row on one frame's skin: the
-    same work as ``compute_ms`` with warm caches and no Blender threads
-    around.  ``compute_ms`` (measured right after Blender evaluated the frame)
-    is the realistic one.
-``evaluate_steps_ms``
-    ``core.muscles.system.evaluate`` replayed step by step (calling its own parts,
-    checked against the real one for equality: ``evaluate_replica_exact``) to
-    show where its time goes; null with ``evaluate_steps_error`` when the
-    replica no longer matches the add-on's internals.
-
-These hand-timed parts reach into the add-on's internals (``pipeline._cache``, the
-muscle source's static plan, ``pipeline._write_in_place``); if they fail, the
-exception goes to ``split_error`` (``split_error_pulling``) and the interleaved
-measurement still runs.
-
-Untimed checks, printed as the run goes and kept in the JSON: the UV map sampled
-(``uv_map``; ``uv_made``: the benchmark made it); region sizes and bounding boxes
-per muscle (``muscles``: how many); the evaluated positions change every frame
-(``positions_changed_frames``); the tension varies (``tension_min``: its minimum
-over the tension blocks' frames); the displacement references move the skin
-(``displace_max_mm``, ``displace_const_max_mm``, on one frame;
-``displace_moved_verts``) and the textured one really samples the image
-(``displace_textured_varies``: its displacement over the constant one's is not
-constant); every muscle contracts on every frame (``min_contraction``); and,
-per muscle configuration, the offsets change frame to frame
-(``offsets_changed_frames`` of ``checked_frames``, ``max_offset_mm``), the
-evaluated position == wrinkle_skin + wrinkle_offset (``stage_applied_err``: the
-frame shows its own wrinkles) and the original mesh was never written
-(``in_place_frames``: no second evaluation).
-
-Output.  The last line is one JSON object.  ``--rig light`` or ``arkit``:
-``{"bpy", "rig", "tree", "repeats", "frames", "warm", "loadavg_start",
-"<size>": {...figures...}, ..., "loadavg_end"}``.  ``--rig both``:
-``{"meta": {"bpy", "rigs", "tree", "repeats", "frames", "warm",
-"loadavg_start", "loadavg_end", "loadavg": {"<rig>": [start, end]}},
-"arkit": {"<size>": {...}}, "light": {"<size>": {...}}}``.  ``tree`` is a hash
-of the add-on and sample-scene sources measured; the load averages are the
-1-minute ones: on a shared 2-core machine, compare runs only at low load.  A size
-that fails keeps the figures it measured plus ``"error"`` (the traceback is in
-the log); the JSON is printed anyway and the exit status is then 1.  Figures
-that could not be computed are null in the JSON and "n/a" in the log.
+What it builds, how it measures and what every figure of its JSON means:
+docs/benchmarks/frame_update.md.
 """
 
 import argparse
@@ -276,8 +40,7 @@ addon_utils.enable("wrinkle_addon", default_set=True)
 
 from wrinkle_addon.core import mesh as core_mesh  # noqa: E402
 from wrinkle_addon.core.muscles import system, zhang  # noqa: E402
-from wrinkle_addon.glue import frame as pipeline  # noqa: E402
-from wrinkle_addon.glue import meshio, stage  # noqa: E402
+from wrinkle_addon.glue import meshio, pipeline, stage  # noqa: E402
 from wrinkle_addon.glue.muscles import landmarks as operators  # noqa: E402
 from wrinkle_addon.glue.muscles import objects as muscle_objects  # noqa: E402
 
@@ -490,7 +253,7 @@ class Bench:
                 m.ewrinkles_muscle.wrinkles_only = not pulling
 
     def floor_handler(self, on, maths=None):
-        """The ``floor`` configuration's handler in or out (see the module doc); with
+        """The ``floor`` configuration's handler in or out (docs/benchmarks/frame_update.md); with
         ``maths``, a function of the skin (N, 3) that returns the offsets (N, 3), the
         ``floor_maths`` one: the same with those offsets added."""
         self._floor_maths = maths
@@ -622,7 +385,7 @@ class Bench:
         return {"muscles": len(self.muscles), "min_contraction": low}
 
     def state(self):
-        return pipeline._cache[self.ob.session_uid]
+        return pipeline.face_state(self.ob)
 
     def plan(self):
         """The muscle source's static plan, as the frame stage holds it now."""
@@ -697,7 +460,7 @@ class Bench:
                 t4 = pc()
                 if getattr(st, "positions", None) is not None:  # what _write_in_place compares
                     ev.attributes["position"].data.foreach_get("vector", st.positions.reshape(-1))
-                written = pipeline._write_in_place(st, ev, skin, out)
+                written = pipeline.write_in_place(ob, ev, skin, out)
                 t5 = pc()
                 if record:
                     base.append(t1 - t0)
@@ -763,7 +526,7 @@ class Bench:
 
     # -- the interleaved measurement -------------------------------------------------
     def measure_interleaved(self):
-        """``repeats`` rounds of (base block, configuration block) pairs; see the module doc."""
+        """``repeats`` rounds of (base block, configuration block) pairs (docs/benchmarks/frame_update.md)."""
         tension = np.empty(self.n, _F)
         tension_min = []
 
@@ -970,7 +733,7 @@ def run_size(label, target, args, rig, r):
     log(f"[{rig} {label}] target {target} verts")
     t0 = pc()
     bs.clear_scene()
-    pipeline._cache.clear()
+    pipeline.forget_all()
     b = Bench(target, args.warm, args.frames, rig, args.repeats)
     r.update(b.build())
     r.update({"verts": b.n, "head": b.source})

@@ -18,7 +18,7 @@ the demo's camera and portrait lights, at the demo's 512 px:
 The pixels measured are the face's pixels inside the zones the pose lights: the zone masks
 are rendered as emission (the maps' UVs, one sample at each pixel's centre), and a pixel
 belongs to zone z when its membership is above 0.5; the zones lit are those whose weight
-on any map (``glue.maps.material.zone_weights``: Table 1.1 over the expressions' driven
+on any map (``glue.maps.map_material.zone_weights``: Table 1.1 over the expressions' driven
 values, clamped, as the weights group computes it) is above 0.05.  On the display
 luminance L (Rec. 709 weights on the rendered PNG)::
 
@@ -99,7 +99,7 @@ def render(scene, path):
 def zone_memberships(scene, face, folder):
     """(H, W, 8) zone memberships per pixel and (H, W) face coverage: the masks rendered as
     emission through the maps' UVs, one sample at each pixel's centre."""
-    from wrinkle_addon.glue.maps import bake as mapbake
+    from wrinkle_addon.glue.maps import map_bake
 
     maps = face.ewrinkles_face.maps
     mat = bpy.data.materials.new("ZoneProbe")
@@ -108,7 +108,7 @@ def zone_memberships(scene, face, folder):
     nt = mat.node_tree
     nt.nodes.clear()
     uv = nt.nodes.new("ShaderNodeUVMap")
-    uv.uv_map = maps.uv_map or mapbake.uv_layer(face).name
+    uv.uv_map = maps.uv_map or map_bake.uv_layer(face).name
     emit = nt.nodes.new("ShaderNodeEmission")
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     nt.links.new(emit.outputs[0], out.inputs["Surface"])
@@ -177,9 +177,9 @@ def measure_pose(scene, face, pose, frame, folder):
         fs.maps.strength = strength
         scene.frame_set(frame)
         shots[state] = render(scene, Path(folder) / f"{pose}_{state}.png")
-    from wrinkle_addon.glue.maps import material
+    from wrinkle_addon.glue.maps import map_material
 
-    weights = material.zone_weights(face).max(axis=0)
+    weights = map_material.zone_weights(face).max(axis=0)
     members, cover = zone_memberships(scene, face, folder)
     from wrinkle_addon.core.maps import jimenez
 
@@ -220,9 +220,9 @@ def lines(path, size=512, samples=32, poses=None, out=None):
             f"({time.perf_counter() - t:.1f} s)")
         result.append({"face": name, "expression": f"map_{pose}", **line})
     if keep:
-        from benchmarks.closeups import contact_sheet
+        from sample_scenes.lib.rendering import contact_sheet
 
-        contact_sheet(rows, folder / "map_look.png")
+        contact_sheet(rows, folder / "map_look.png", gap=4)
         log(f"sheet {folder / 'map_look.png'}")
     return result
 

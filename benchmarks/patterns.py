@@ -188,7 +188,7 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=6)
     args = ap.parse_args(argv)
     fu.bs.clear_scene()
-    fu.pipeline._cache.clear()
+    fu.pipeline.forget_all()
     bench = fu.Bench(args.verts, args.warm, args.frames, "light", args.repeats)
     bench.build()
     face = bench.ob
@@ -217,7 +217,7 @@ def main(argv=None):
     show(True)
     show_tears(True)
     bench.frame_loop(bench.warm)
-    state = fu.pipeline._cache[face.session_uid]
+    state = fu.pipeline.face_state(face)
     static = state.statics["patterns"][1]
     if static.problem or len(static.plan.layers) != len(layers):
         raise RuntimeError(f"the layers did not all build: {static.problem}")
@@ -259,14 +259,14 @@ def main(argv=None):
             bench.floor_handler(config.startswith("floor"), maths if config == "floor_maths" else None)
             bench.stage_mod.show_viewport = config != "base"
             bench.frame_loop(bench.warm)
-            serial = fu.pipeline._cache[face.session_uid].statics["patterns"][2]
+            serial = fu.pipeline.face_state(face).statics["patterns"][2]
             times[config].append(bench.frame_loop(bench.frames))
             if config == "moving":
-                rebuilt.append(fu.pipeline._cache[face.session_uid].statics["patterns"][2] != serial)
+                rebuilt.append(fu.pipeline.face_state(face).statics["patterns"][2] != serial)
             if config in ("base", "floor", "floor_maths"):
                 continue
             bench.frame_loop(bench.frames[:3], lambda _ev, c=config: peak[c].append(
-                float(np.abs(fu.pipeline._cache[face.session_uid].out).max())))
+                float(np.abs(fu.pipeline.face_state(face).out).max())))
         log(f"repeat {rep + 1}/{args.repeats}: "
             + ", ".join(f"{c} {fu.ms(times[c][-1]):.2f} ms" for c in configs))
     med = {c: [fu.ms(b) for b in blocks] for c, blocks in times.items()}

@@ -1,265 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""How real muscle wrinkles look, measured on a wrinkle height field.  Pure NumPy (the
-rasteriser is the add-on's own ``wrinkle_addon.core.raster``), importable without bpy;
-``benchmarks/realism.py`` feeds it the add-on's heights on real heads.
+"""How real muscle wrinkles look, measured on a wrinkle height field (pure NumPy, importable
+without bpy; ``benchmarks/realism.py`` feeds it the add-on's heights on real heads).
 
-Everything is in millimetres, in the face's front plane: face-local coordinates (the face
-looks toward -Y, Z up, the character's left +X), x across, z up, y the depth (smaller is
-nearer the viewer).  Heights are along the skin normal, negative in a furrow, positive on a
-bulge (Zhang's eq. 5: furrows at the cycle ends, bulges mid-cycle).
-
-The grid
---------
-:func:`front_grid` resamples per-vertex heights (and the depth y) onto a regular (x, z)
-grid of cells ``step`` apart, as the face is seen from the front: the triangles facing the
-viewer are rasterised with linear interpolation, nearest last, so each cell holds the
-surface a viewer sees there.  Cells no front-facing triangle covers are invalid (NaN).
-Lengths along a furrow are measured in 3D through the depth, so a sloping glabella is not
-foreshortened.
-
-Furrows as ridge-lines of minima (:func:`ridges`)
---------------------------------------------------
-A furrow point is a cell whose height is at most ``-detect_mm`` and no higher than every
-cell within ``window_mm`` on both sides *across* the expected furrow direction (along z
-for the forehead's horizontal furrows, along x for the glabella's vertical ones; a cell
-within ``window_mm`` of the grid's edge or of an invalid cell is never one).  Points in
-neighbouring lines of the grid are linked when they are at most one cell apart across per
-cell along, so a line at up to 45° is followed; a gap along the furrow of up to
-``gap_mm`` (1 mm, invisible) is bridged.  Each connected set is a ridge-line; its position
-across in each line of the grid is the vertex of the parabola through the minimum and its
-two neighbours (sub-cell, so a slanting line is not a staircase).
-
-Forehead, brow raise (:func:`forehead`)
----------------------------------------
-The forehead is the grid between the outer brows (x) and from the top of the brows to the
-hairline (z) (the benchmark takes these from the posed landmarks).  Furrow points at
-0.1 mm or deeper (``detect_mm``; a visible fine line), window 1 mm.
-
-* **Distinct furrows** (``furrows``, goal >= 3): ridge-lines running at least a tenth of
-  the forehead's width (``min_fraction``; shorter ones are dimples), grouped into rows,
-  longest first: a ridge-line continues the row whose nearest end lies closest across to
-  its own facing end (each end averaged over 3 mm), if that is within half the median
-  spacing of the ridge-lines (their gaps across wherever two share a column; ``merge_mm``,
-  3 mm, when none do) and the two overlap along x by at most a quarter of the shorter.  So
-  a furrow broken at the midline, or kinked where two muscles meet, counts once.
-  ``furrows`` is the number of rows.
-* **Continuity** (goal >= 0.5): per row, the x-extent of its longest ridge-line (what runs
-  unbroken) over the forehead's width; the median over the rows.  0 without furrows.
-* **Angle** (``angle_deg``, goal <= 15): per unbroken ridge-line, the angle of its
-  least-squares line z = a + b x against the brow line (the benchmark's line through the
-  posed outer brows); per row the extent-weighted mean of their absolute values; the
-  median over the rows.  (A furrow that arches with the brow, symmetric about the middle,
-  fits a level line.)
-* **Spacing** (``spacing_cv``, goal <= 0.35): the rows' z at the forehead's centre x (on
-  their fitted lines), sorted; the coefficient of variation (population standard
-  deviation over mean) of the gaps between neighbours.  None with fewer than 3 rows (a
-  single gap has no variation to measure).
-* **Furrow to bulge** (``furrow_bulge_ratio``, goal > 1): in every grid column, between
-  each pair of neighbouring furrows (each row's deepest point in that column), the depth
-  of the two furrows (mean of -h) and the highest height between them (the bulge, at
-  least 0); the ratio of the medians over all such pairs, capped at 100 (a furrow with
-  no bulge at all).  None where no column has two furrows.
-* **Depth along a furrow** (``depth_cv_along``, goal >= 0.15: a real furrow is deeper in
-  places and fades out): per row, its longest ridge-line's depth sampled every 1 mm of its
-  3D path (the path smoothed over +-1 mm; the depth at each grid line is the vertex of the
-  parabola through the deepest cell and its two neighbours across, so a slanting furrow is
-  not made uneven by the grid), the coefficient of variation (population standard
-  deviation over mean) of those samples; the median over the rows.  None without rows.
-* **Taper** (``taper_mm``, goal >= 5: furrows fade out gradually, they do not stop
-  short): per end of every ridge-line of the rows, the 3D path length (as above) from
-  the end, where the depth is down to the detection threshold, inward to the first point
-  whose depth (linearly interpolated between grid lines) reaches the ridge-line's typical
-  depth, the median of its 1 mm samples.  A linear fade of length T from a plateau of
-  depth D so gives T (1 - 0.1 / D).  An end cut off by the region is not an end: when a
-  cell within ``window_mm + gap_mm`` beyond the end along the furrow (and within
-  ``window_mm`` across) lies outside the grid or is invalid, the furrow may run on out of
-  sight, and that end is not counted; nor are the ends of a ridge-line whose typical
-  depth is under twice the detection threshold (0.2 mm: it is all fade).  The shortest
-  over all counted ends; None when there are none.
-
-Glabella, brow down (:func:`glabella`)
---------------------------------------
-The grid between the brows; the side of a cell is its x against the midline.  Furrow
-points across x, at 0.05 mm or deeper (``detect_mm``: the whole furrow is followed, then
-judged), window 1 mm.  Per ridge-line: its angle from vertical (line x = a + b z); its
-**deep length**, the 3D length of its longest stretch (gaps up to ``gap_mm`` bridged)
-where it is at least ``depth_mm`` (0.3 mm) deep, along its path smoothed over +-1 mm;
-its depth, the largest -h on it.  A **frown line** is within ``max_angle_deg`` (30°) of
-vertical, deeper than ``depth_mm`` (0.3 mm) over a deep length of at least ``count_mm``
-(3 mm: shorter is a dimple, not a line).
-
-* ``glabella_furrows_per_side``: the frown lines on the side that has fewer (goal: 1 to 2
-  on each side).
-* ``glabella_separation_mm``: per pair of frown lines on one side, their distance across
-  (|x difference|, the median over the grid lines (z) both pass; when they share none, the
-  smallest distance between their points); the smallest over the pairs of both sides
-  (goal >= 3: two lines closer than that read as one double line).  None when no side
-  has two frown lines.
-* ``glabella_length_mm``: on each side the largest deep length of a near-vertical
-  ridge-line; the smaller of the two sides (goal >= 10).
-* ``glabella_depth_mm``: on each side the deepest near-vertical ridge-line; the smaller
-  of the two sides (goal >= 0.5).
-
-Brow down: where the frown lines sit (:func:`glabella_offset`)
---------------------------------------------------------------
-The corrugators draw the brows' inner ends down and together, and the frown lines form at
-those ends.  Per side, the frown line is the deepest (largest -h) of :func:`glabella`'s
-frown lines on that side (near-vertical, deep enough, long enough: as above); its centre x
-is the mean x (the sub-cell position across) of its deep stretch, its points at least
-``depth_mm`` (0.3 mm) deep.  The inner end of the brow per side (the benchmark's): on a
-head with ICT's topology whose iBUG-68 reference lies beside the head file (the sample
-head's is ``tests/data/ict_head_landmarks.json``; ``benchmarks/landmarks.py``), the posed
-position of iBUG vertex 22 (the left brow's inner end, +X, ``_L``) and 21 (the right's);
-otherwise the face's ``brow_inner_L/R`` landmarks, posed.  ``glabella_offset_mm``: the
-larger over the two sides of |centre x - inner brow x| (horizontal only, mm); None when a
-side has no frown line (goal <= 4).
-
-Brow down: wrinkles follow compression (:func:`vertex_compression`, :func:`pearson`)
-------------------------------------------------------------------------------------
-Skin folds where it is squeezed.  The compression per vertex, from the rest mesh to the
-posed skin before the wrinkles (the skin the *Wrinkles* modifier stored plus the muscles'
-Waters pull; a wrinkles-only face such as ICT posed by its shape keys has no pull, its
-skin is the shape keys' mix): per triangle, rest and posed each in its own plane, the 2D
-deformation gradient F (the posed edges times the inverse of the rest edges), its smaller
-singular value lambda_min (the smaller principal stretch) and the compression c = max(0,
-1 - lambda_min) (:func:`triangle_compression`); per vertex the mean of its triangles' c
-weighted by their rest areas (:func:`vertex_compression`).  r is Pearson's correlation of
-that compression with |h| over a set of vertices (:func:`pearson`; None with fewer than
-20 vertices or no variance in either):
-
-* ``strain_r`` over the vertices whose posed (x, z) lies in the glabella box (the grid of
-  :func:`glabella`) and whose posed normal (area-weighted, :func:`vertex_normals`) faces
-  the viewer (-y) (goal >= 0.5);
-* ``strain_r_corrugator`` over the vertices of the wrinkling regions of the muscles whose
-  role is CORRUGATOR (both sides) (goal >= 0.3);
-* ``strain_r_procerus`` the same for the role PROCERUS (goal >= 0.3).
-
-Brow down: no crow's feet (:func:`corner_max_abs`)
---------------------------------------------------
-``eye_corner_brow_down_mm``: the largest |h| over the vertices whose posed position lies
-within 0.3 E (3D; E the eyes' distance, as for the squint) of either outer eye corner (the
-posed corners of the squint, below), on the lateral side of that corner (its outward x
-against the corner's >= 0), outside the eyelid zone (goal <= 0.05: when only the brows
-come down, there are no crow's feet).
-
-Anger: the line at the root of the nose (:func:`procerus`)
------------------------------------------------------------
-The grid on the midline between the eyes (the benchmark's box: x within a quarter of the
-interocular distance E of the glabella, z from the eyes' height up to the glabella).
-Furrow points across z at 0.05 mm or deeper, window 1 mm, as for the forehead.
-``procerus_line`` is True when a ridge-line there lies within ``max_angle_deg`` (30°) of
-horizontal (its least-squares line z = a + b x) and has a deep length (as the
-glabella's) of at least ``length_mm`` (5 mm) where it is at least ``depth_mm`` (0.2 mm)
-deep (goal: True).
-
-Squint: crow's feet (:func:`crows_feet_side`, :func:`crows_feet`)
------------------------------------------------------------------
-Per side, around the outer eye corner (the benchmark estimates it as the lateral end of
-the add-on's eyelid ellipse, ``core.zones``: the eye's centre moved outward by
-``EYELID["half_width"]`` times the eyes' distance E, at the eye's height; the grid is
-seen along the mean normal of the skin there, turned about the vertical, so that the
-temple is not foreshortened).  The region is the box from 0.1 E to 0.6 E outward of the
-corner and +-0.45 E in height about it.  Crow's feet fan out from the corner, so the
-grid is resampled (bilinearly) in polar coordinates about the corner: angle (from the
-outward horizontal, up positive) by radius (0.1 E to 0.75 E, ``step`` apart; the angle's
-step is ``step`` of arc at the largest radius), samples outside the box invalid.  A
-furrow point is a sample at least 0.1 mm deep and no higher than every sample within
-1 mm of arc on both sides *across the angle*; points at neighbouring radii (gaps up to
-1 mm bridged) are linked when they are at most one radius step of arc apart per step
-(so a line within 45° of radial is followed).  Each connected set is a ridge-line; its
-angle at each radius is the parabola vertex through its deepest sample and the two
-beside it.  Per ridge-line: its **deep length** (3D, path smoothed over +-1 mm, as the
-glabella's) where at least 0.2 mm deep; its **direction**, the angle from the outward
-horizontal of the principal axis of that deep stretch; its depth, the largest -h.  A
-**crow's foot** has a deep length of at least ``count_mm`` (4 mm; shorter is a dimple).
-
-* ``crows_feet_per_side``: the crow's feet on the side that has fewer (goal 2 to 5).
-* ``crows_feet_fan_deg``: per side the spread of the crow's feet's directions (largest
-  minus smallest; 0 for one); the larger of the two sides (goal: they fan out, within
-  about 90°).  None without crow's feet.
-* ``crows_feet_length_mm``: the shortest deep length of any crow's foot of either side
-  (goal >= 8).  None without crow's feet.
-* ``crows_feet_depth_mm``: per side the deepest crow's foot (0 without one); the smaller
-  of the two sides (goal >= 0.2).
-* ``eyelid_lip_max_mm`` as below (goal 0: none on the lids).
-
-Smile: the nasolabial fold (:func:`deepest_in_band`)
------------------------------------------------------
-Below the eyes (the grid from the chin to the eyes), the nasolabial bands are the cells
-within a distance of the segment from beside the nose's wing to beside the mouth corner
-(set by the benchmark from the landmarks).  ``nasolabial_deepest`` is True when the lowest
-height of all valid cells below the eyes is negative (a furrow) and lies in a band.
-
-Smile: knots (:func:`knots`)
-----------------------------
-Where folds of several muscles pile up, a dark slit forms beside a bright nub: a sharp
-furrow far deeper than the region's wrinkles right beside a sharp bump far higher than
-its bulges.  On the grid below the eyes: the region's **typical furrow depth** D is the
-median of -h over its furrow cells (cells at least 0.1 mm deep, no higher than every
-cell within 1 mm along x, or along z, and lower than the two cells 1 mm away that way),
-its **typical bulge** B the median of h over its bulge cells (the same for -h, at least
-0.05 mm high).  The curvatures are the
-eigenvalues k1 <= k2 of the Hessian of h smoothed with a Gaussian of sigma 0.5 mm
-(central differences), in 1/mm.  A **slit** cell is at least max(2 D, 0.3 mm) deep with
-k2 >= 0.2 (a narrow trough); a **nub** cell is at least max(2 B, 0.2 mm) high with
-k1 <= -0.2 (a narrow crest).  A **knot** is a connected set (8-neighbours) of nub cells
-with a slit cell within 2.5 mm (about 2 mm; 5 cells) of one of them.  ``knots`` is their
-number (goal 0).  A clean fold passes: its bulge is low and round (and a single fold is
-the region's typical furrow, never twice as deep as itself).
-
-Anger: knots and sharp creases at the nose root (:func:`ridge_curvature_max`)
-----------------------------------------------------------------------------
-``nose_root_knots``: :func:`knots` (as for the smile) on the nose-root grid (goal 0).
-
-A seam, tube edge or streak is a narrow crest or trough: high curvature.
-``ridge_curvature_max``: the largest |curvature| (1/mm; both eigenvalues k1, k2 of the
-Hessian of h smoothed with a Gaussian of sigma 0.5 mm, central differences, as for
-:func:`knots`) over the valid cells at least 0.1 mm deep or high (|h| >= 0.1); 0 when there
-is none.  How sharp the sharpest crease or crest is.  On the nose root (anger), and for
-comparison the same number on the glabella (brow down) and the forehead (brow raise).
-(The central differences of central differences span two cells, 1 mm: a crease narrower
-than that reads below its true curvature.)  Goal: reported; see the ``nose_root_knots``
-goal.
-
-Slits (:func:`slits`)
----------------------
-A furrow is a slit, a cut rather than a fold, when its width between the zero crossings
-across it is under 3 times its depth at its deepest 10 %.  Per ridge-line of
-:func:`ridges` at 0.1 mm (``detect_mm``; window 1 mm, gaps 1 mm; across z on the forehead,
-across x on the glabella): its points (one per grid line along) whose height is at or below
-the 10th percentile of its heights (its deepest 10 %, at least one point); at each, a walk
-across the furrow both ways from the minimum to where h first reaches 0 (linearly
-interpolated between cells); a walk that meets an invalid cell or the grid's edge first,
-or runs more than 10 mm, leaves that point's width unknown (it is skipped); the width is
-the distance between the two crossings (mm, across).  The ridge-line is a slit when the
-median of width / depth over its known points is under 3 (``ratio``; with none known it
-is not).  ``slit_count``: the number of slits, on the forehead (brow raise) and the
-glabella (brow down) (goal 0).  A V-groove with straight flanks of slope s is 2 / s
-wide per mm of depth: a slit where s > 2/3.
-
-Left and right (:func:`lr_balance`, :func:`forehead_sides`)
------------------------------------------------------------
-A symmetric expression wrinkles both sides alike.  Per feature, ``lr_ratio_<feature>`` is
-the deeper side's deepest depth over the shallower side's (>= 1; None when a side has
-nothing, no depth above 0), and ``lr_counts_<feature>`` the counts per side [L, R] (goal:
-ratio <= 1.15, counts equal):
-
-* ``forehead`` (brow raise): the forehead grid split at the glabella's x (L: x at or
-  beyond it); the deepest is -min h in each half; the count, the ridge-lines (across z, at
-  0.1 mm, window 1 mm, as :func:`forehead` finds them) whose extent along x within that
-  half is at least a tenth of the whole forehead's width (one that crosses the midline
-  counts on both sides).
-* ``frown`` (brow down): per side :func:`glabella`'s frown lines: the depth of the deepest,
-  their number.
-* ``nasolabial`` (smile): per side its own nasolabial band: -min h in the band
-  (:func:`band_deepest`), the count 1 if that is at least 0.1 mm, else 0.
-* ``crows_feet`` (squint): per side :func:`crows_feet_side`: the deepest crow's foot (0
-  without one: nothing), the number of crow's feet.
-
-Eyelids and lips (:func:`max_abs`)
------------------------------------
-``eyelid_lip_max_mm``: the largest |h| over the vertices of the add-on's own eyelid and
-lip zones (``wrinkle_addon.core.zones.face_zones``), per vertex, no grid (goal: 0).
+Every measure, its units and how it is computed: docs/benchmarks/realism_measures.md.
 """
 
 from dataclasses import dataclass
@@ -430,7 +173,7 @@ def _components(pts, pairs):
 
 def ridges(grid, across, detect_mm, window_mm=1.0, gap_mm=1.0):
     """The ridge-lines of minima of ``grid`` across ``across`` ('z': horizontal furrows,
-    'x': vertical ones), as :class:`Ridge` in that frame (see the module doc)."""
+    'x': vertical ones), as :class:`Ridge` in that frame (docs/benchmarks/realism_measures.md)."""
     step = grid.step
     if across == "z":
         h, y, across_pos, along_pos = grid.h, grid.y, grid.zs, grid.xs
@@ -536,7 +279,7 @@ def _rows(found, merge_mm, end_mm=3.0):
 
 def forehead(grid, brow_angle_deg=0.0, detect_mm=0.1, window_mm=1.0, gap_mm=1.0, min_fraction=0.1,
              merge_mm=3.0):
-    """The brow-raise measures on the forehead ``grid`` (see the module doc): a dict with
+    """The brow-raise measures on the forehead ``grid`` (docs/benchmarks/realism_measures.md): a dict with
     ``furrows``, ``continuity``, ``angle_deg``, ``spacing_cv``, ``furrow_bulge_ratio``,
     ``depth_cv_along``, ``taper_mm``."""
     width = float(grid.xs[-1] - grid.xs[0]) if len(grid.xs) > 1 else 0.0
@@ -686,7 +429,7 @@ def _smooth(v, half):
 
 def glabella(grid, midline_x, detect_mm=0.05, window_mm=1.0, gap_mm=1.0, depth_mm=0.3, count_mm=3.0,
              max_angle_deg=30.0):
-    """The brow-down measures on the glabella ``grid`` (see the module doc): a dict with
+    """The brow-down measures on the glabella ``grid`` (docs/benchmarks/realism_measures.md): a dict with
     ``glabella_furrows_per_side``, ``glabella_separation_mm``, ``glabella_length_mm``,
     ``glabella_depth_mm``, per side (``sides``) the ridge-lines as (angle from
     vertical, deep length, depth), and per side (``lines``) the frown lines as
@@ -730,7 +473,7 @@ def _separation(a, b):
 # --------------------------------------------------------------------------- procerus
 def procerus(grid, detect_mm=0.05, window_mm=1.0, gap_mm=1.0, depth_mm=0.2, length_mm=5.0,
              max_angle_deg=30.0):
-    """The anger measure on the nose-root ``grid`` (see the module doc): a dict with
+    """The anger measure on the nose-root ``grid`` (docs/benchmarks/realism_measures.md): a dict with
     ``procerus_line`` and ``lines``, the ridge-lines as (angle from horizontal, deep
     length, depth)."""
     gap_cols = max(1, int(round(gap_mm / grid.step)) + 1)
@@ -766,8 +509,8 @@ def _sample(grid, values, X, Z):
 def crows_feet_side(grid, corner, outward, interocular, detect_mm=0.1, window_mm=1.0, gap_mm=1.0,
                     depth_mm=0.2, count_mm=4.0, inner=0.1, outer=0.6, half_height=0.45, radius_max=0.75):
     """The crow's feet of one side on ``grid`` around the outer eye ``corner`` ((x, z),
-    mm), ``outward`` +1 (toward +x) or -1, ``interocular`` the eyes' distance E (mm) (see
-    the module doc).  A dict: ``count``, ``fan_deg`` (None without crow's feet),
+    mm), ``outward`` +1 (toward +x) or -1, ``interocular`` the eyes' distance E (mm)
+    (docs/benchmarks/realism_measures.md).  A dict: ``count``, ``fan_deg`` (None without crow's feet),
     ``depth`` (0 without), ``lengths`` (of the crow's feet), and ``furrows``, every
     ridge-line as (direction deg, deep length, depth, inner and outer radius of its deep
     stretch)."""
@@ -875,7 +618,7 @@ def _direction(px, pz, cx, cz, outward):
 def crows_feet(sides):
     """The squint measures from the per-side results of :func:`crows_feet_side`:
     ``crows_feet_per_side``, ``crows_feet_fan_deg``, ``crows_feet_length_mm``,
-    ``crows_feet_depth_mm`` (see the module doc)."""
+    ``crows_feet_depth_mm`` (docs/benchmarks/realism_measures.md)."""
     fans = [s["fan_deg"] for s in sides if s["fan_deg"] is not None]
     lengths = [v for s in sides for v in s["lengths"]]
     return {"crows_feet_per_side": int(min(s["count"] for s in sides)),
@@ -933,7 +676,7 @@ def _strict_minima(h, window, detect):
 
 def knots(grid, slit_factor=2.0, nub_factor=2.0, slit_mm=0.3, nub_mm=0.2, kappa=0.2, near_mm=2.5,
           sigma_mm=0.5, detect_mm=0.1, window_mm=1.0):
-    """The smile's knots on ``grid`` (see the module doc): a dict with ``knots`` and
+    """The smile's knots on ``grid`` (docs/benchmarks/realism_measures.md): a dict with ``knots`` and
     ``where``, per knot (x, z, height) of its highest nub cell and the distance to its
     nearest slit cell, and ``furrow_depth`` (D) and ``bulge`` (B), the region's typical."""
     h, step = grid.h, grid.step
@@ -1150,7 +893,7 @@ def band_deepest(grid, band):
 
 # --------------------------------------------------------------------------- curvature
 def ridge_curvature_max(grid, min_mm=0.1, sigma_mm=0.5):
-    """The sharpest crease or crest on ``grid`` (see the module doc): a dict with
+    """The sharpest crease or crest on ``grid`` (docs/benchmarks/realism_measures.md): a dict with
     ``ridge_curvature_max`` (1/mm; 0 when no cell is ``min_mm`` deep or high) and
     ``where``, (x, z, h) of that cell (None without one)."""
     out = {"ridge_curvature_max": 0.0, "where": None}
@@ -1192,7 +935,7 @@ def _crossing(h, k0, j, sign, max_cells):
 
 
 def slits(grid, across, detect_mm=0.1, ratio=3.0, window_mm=1.0, gap_mm=1.0, max_mm=10.0):
-    """The furrows of ``grid`` that are slits (see the module doc): the ridge-lines of
+    """The furrows of ``grid`` that are slits (docs/benchmarks/realism_measures.md): the ridge-lines of
     minima across ``across`` ('z' or 'x', as :func:`ridges`) at least ``detect_mm`` deep
     whose median width (between the zero crossings across) over depth, at their deepest
     10 %, is under ``ratio``.  A dict: ``slit_count``; ``slits``, per slit (x, z of its

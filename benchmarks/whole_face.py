@@ -106,7 +106,7 @@ class Face:
         from mathutils import Vector
 
         fu.bs.clear_scene()
-        fu.pipeline._cache.clear()
+        fu.pipeline.forget_all()
         t = time.perf_counter()
         self.bench = b = fu.Bench(target, warm, frames, "arkit", repeats)
         b.build()
@@ -202,7 +202,7 @@ class Face:
         b, face = self.bench, self.face
         self.configure("all")
         b.frame_loop(b.warm)
-        state = fu.pipeline._cache[face.session_uid]
+        state = fu.pipeline.face_state(face)
         statics = {name: data for name, (_key, data, _serial) in state.statics.items()}
         ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
         skin = fu.meshio.read_vector_prefix(ev, fu.stage.SKIN_ATTR, b.n, np.empty((b.n, 3), np.float32))
@@ -219,8 +219,8 @@ class Face:
                        + tight(combine.combine, state.plan, skin, parts, out))
         st = statics["patterns"]
         values = [v[0][:5] for v in src["patterns"].inputs(face, st)]
-        r["patterns"] = (tight(core_patterns.heights, st.plan, values)
-                         + pt.combine_floor(face, st.plan.footprint, core_patterns.heights(st.plan, values)))
+        _maths, time_combine = pt.layers_maths(face, st, values)
+        r["patterns"] = tight(core_patterns.heights, st.plan, values) + time_combine()
         maps_inputs = src["maps"].inputs(face, statics["maps"])
         r["maps"] = tight(src["maps"].contribute, face, statics["maps"], skin, maps_inputs)
         return r
@@ -272,13 +272,12 @@ def run_size(label, target, args):
     configs = ("base", "floor", "none") + SOURCES + ("all",)
     times = {c: [] for c in configs}
     peak = {}
-    uid = f.face.session_uid
     for rep in range(args.repeats):
         for config in (configs if rep % 2 == 0 else configs[::-1]):
             f.configure(config)
             b.frame_loop(b.warm)
             times[config].append(b.frame_loop(b.frames))
-            state = fu.pipeline._cache.get(uid)  # untimed: what the stage wrote on the last frame
+            state = fu.pipeline.face_state(f.face)  # untimed: what the stage wrote on the last frame
             if state is not None and state.out is not None and config not in ("base", "floor"):
                 peak[config] = max(peak.get(config, 0.0), float(np.abs(state.out).max()) * 1000.0)
         log(f"{label} repeat {rep + 1}/{args.repeats}: "

@@ -158,13 +158,13 @@ def held_mb(imgs):
 def _zone_weights(face):
     """The 8 zone weights of map 1 as the blend node gets them this frame."""
     from wrinkle_addon.core.maps import jimenez
-    from wrinkle_addon.glue.maps import material
+    from wrinkle_addon.glue.maps import map_material
 
     maps = face.ewrinkles_face.maps
     keys = face.data.shape_keys.key_blocks
     values = [keys[ex.shape_key].value if ex.source == "SHAPE_KEY" and ex.shape_key in keys else 0.0
               for ex in maps.expressions]
-    sums = jimenez.expression_sums(values, material.table(maps))
+    sums = jimenez.expression_sums(values, map_material.table(maps))
     return jimenez.zone_response(sums, list(maps.zone_strength), list(maps.zone_power))
 
 

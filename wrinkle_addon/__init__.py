@@ -11,18 +11,24 @@ Blender.
 _MODULES = ()
 
 
-def _modules():
-    from . import cli, props, sources
-    from .glue import frame
-    from .ops import bando, convert, export, face, mapbake, maps, muscles, patterns, sample_head
-    from .ui import bando as bando_ui
-    from .ui import draw, panels
-    from .ui import maps as maps_ui
-    from .ui import muscles as muscles_ui
-    from .ui import patterns as patterns_ui
+def _registered(package):
+    """Every module of ``package`` that registers something (has ``register``), in name
+    order: a method's operators and panels are its own files, listed nowhere else."""
+    import importlib
+    import pkgutil
 
-    return (props, frame, face, muscles, maps, convert, mapbake, bando, patterns, sample_head, export,
-            muscles_ui, maps_ui, bando_ui, patterns_ui, panels, draw, sources, cli)
+    names = sorted(info.name for info in pkgutil.iter_modules(package.__path__))
+    modules = [importlib.import_module(f"{package.__name__}.{name}") for name in names]
+    return [m for m in modules if hasattr(m, "register")]
+
+
+def _modules():
+    """The layers in order: properties, the frame handlers, operators, panels, the sources
+    (which hang their settings on the face and may draw in the panels), the batch command."""
+    from . import cli, ops, props, sources, ui
+    from .glue import pipeline
+
+    return (props, pipeline, *_registered(ops), *_registered(ui), sources, cli)
 
 
 def register():

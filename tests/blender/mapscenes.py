@@ -3,8 +3,7 @@
 import bpy
 import numpy as np
 
-from wrinkle_addon.glue.maps import material as wrinklemaps
-from wrinkle_addon.glue.maps import nodegroups as mapgroup
+from wrinkle_addon.glue.maps import map_material, nodegroups
 
 
 def data_image(name, pixels, closest=True):
@@ -82,7 +81,7 @@ def blend_material(plane, base, maps, mask_a, mask_b, weights, strength=1.0, dif
     """The wrinkle-map blend group fed by images and constant zone weights (K, 8)."""
 
     def setup(nt):
-        ng = mapgroup.ensure_blend_group(len(maps))
+        ng = nodegroups.ensure_blend_group(len(maps))
         g = nt.nodes.new("ShaderNodeGroup")
         g.node_tree = ng
         nt.links.new(image_node(nt.nodes, base).outputs["Color"], g.inputs["Base Normal"])
@@ -91,9 +90,9 @@ def blend_material(plane, base, maps, mask_a, mask_b, weights, strength=1.0, dif
             nt.links.new(n.outputs["Color"], g.inputs[label])
             nt.links.new(n.outputs["Alpha"], g.inputs[label + " Alpha"])
         for k, img in enumerate(maps):
-            nt.links.new(image_node(nt.nodes, img).outputs["Color"], g.inputs[mapgroup.map_socket(k)])
+            nt.links.new(image_node(nt.nodes, img).outputs["Color"], g.inputs[nodegroups.map_socket(k)])
             for z in range(8):
-                g.inputs[mapgroup.zone_socket(k, z)].default_value = float(weights[k][z])
+                g.inputs[nodegroups.zone_socket(k, z)].default_value = float(weights[k][z])
         g.inputs["Strength"].default_value = strength
         g.inputs["Difference Maps"].default_value = 1.0 if difference else 0.0
         return g.outputs["Normal"]
@@ -155,7 +154,7 @@ def show_blend_output(mat):
         if n.type == "OUTPUT_MATERIAL":
             n.is_active_output = False
     emit_normal(nt, normal).is_active_output = True
-    for _prop, image_node_name, _socket in wrinklemaps.IMAGE_NODES:
+    for _prop, image_node_name, _socket in map_material.IMAGE_NODES:
         n = nt.nodes.get(image_node_name)
         if n is not None:
             n.interpolation = "Closest"

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from tests.blender import scenes
-from wrinkle_addon.glue import frame as pipeline
+from wrinkle_addon.glue import pipeline
 
 
 def _frames(face, frames=(1, 2)):

@@ -20,13 +20,12 @@ import pytest
 from tests.blender import exportscenes, scenes
 from wrinkle_addon import cli
 from wrinkle_addon.cli import args as cli_args
-from wrinkle_addon.glue import bake as bake_glue
-from wrinkle_addon.glue import registry
-from wrinkle_addon.glue.maps import material as wrinklemaps
+from wrinkle_addon.glue import farm_bake, registry
+from wrinkle_addon.glue.maps import map_material
 
 
 def _maps_source():
-    return next(s for s in registry.sources() if s.name == wrinklemaps.CHANNEL)
+    return next(s for s in registry.sources() if s.name == map_material.CHANNEL)
 
 
 def _files(root):
@@ -100,7 +99,7 @@ def test_a_face_with_shape_key_maps_bakes_is_farm_ready_and_renders_the_same(tmp
     out = capfd.readouterr().out
     assert "baked, renders without the add-on" in out and out.rstrip().endswith("farm-ready: yes"), out
     group = bpy.data.objects["Face"].ewrinkles_face.maps.weights_group
-    assert not wrinklemaps.baked_paths(group) and len(group.animation_data.drivers) == 1  # live driver
+    assert not map_material.baked_paths(group) and len(group.animation_data.drivers) == 1  # live driver
 
     assert cli.execute(["render", str(shot), "--frames", "1,5", "--out", str(tmp_path / "live")]) == 0
     scenes.run_on_farm(FARM_RENDER, farm, tmp_path)
@@ -116,24 +115,24 @@ def test_a_face_with_shape_key_maps_bakes_is_farm_ready_and_renders_the_same(tmp
 # --------------------------------------------------------------------------- a bake that fails
 def _fail_in(where, monkeypatch):
     if where == "export":  # the exporter writes (part of) the cache, then stops
-        real = bake_glue._export
+        real = farm_bake._export
 
         def export(*args):
             real(*args)
             raise RuntimeError("the Alembic exporter stopped")
 
-        monkeypatch.setattr(bake_glue, "_export", export)
+        monkeypatch.setattr(farm_bake, "_export", export)
     else:  # the cache is written and in place: the stand-in cannot read it (once: the
         # previous stand-in, made again from the previous cache, reads that one)
-        real, calls = bake_glue._object_path, []
+        real, calls = farm_bake._object_path, []
 
         def object_path(face, cache):
             calls.append(cache.filepath)
             if len(calls) == 1:
-                raise bake_glue.BakeError("the cache holds no single mesh")
+                raise farm_bake.BakeError("the cache holds no single mesh")
             return real(face, cache)
 
-        monkeypatch.setattr(bake_glue, "_object_path", object_path)
+        monkeypatch.setattr(farm_bake, "_object_path", object_path)
 
 
 def _saved_shot(tmp_path):
@@ -166,7 +165,7 @@ def test_a_bake_that_fails_midway_leaves_nothing(tmp_path, monkeypatch, where, b
     face = _saved_shot(tmp_path)
     if before == "baked":
         assert bpy.ops.wrinkle.bake(frame_start=1, frame_end=3) == {"FINISHED"}
-        assert bake_glue.stand_in(face) is not None and face.hide_render
+        assert farm_bake.stand_in(face) is not None and face.hide_render
     bpy.context.scene.frame_set(2)
     files, state = _files(tmp_path), _scene_state(face)
     _fail_in(where, monkeypatch)
@@ -175,7 +174,7 @@ def test_a_bake_that_fails_midway_leaves_nothing(tmp_path, monkeypatch, where, b
     assert _files(tmp_path) == files  # no cache, no folder, no temporary file; a previous cache kept
     assert _scene_state(face) == state
     if before == "baked":  # the previous stand-in renders its cache again
-        assert bake_glue.stand_in(face).modifiers[bake_glue.CACHE_MODIFIER].cache_file is not None
+        assert farm_bake.stand_in(face).modifiers[farm_bake.CACHE_MODIFIER].cache_file is not None
 
 
 @pytest.mark.parametrize("before", ["live", "baked"])
@@ -185,9 +184,9 @@ def test_a_geometry_bake_is_undone_whole_until_it_is_kept(tmp_path, before):
     if before == "baked":
         assert bpy.ops.wrinkle.bake(frame_start=1, frame_end=3) == {"FINISHED"}
     files, state = _files(tmp_path), _scene_state(face)
-    job = bake_glue.Bake(bpy.context, face, bake_glue.default_path(face), 1, 2)
+    job = farm_bake.Bake(bpy.context, face, farm_bake.default_path(face), 1, 2)
     baked = job.run()
-    assert bake_glue.stand_in(face) == baked and _files(tmp_path) != files  # the new cache
+    assert farm_bake.stand_in(face) == baked and _files(tmp_path) != files  # the new cache
     job.undo()
     assert _files(tmp_path) == files and _scene_state(face) == state
 
@@ -222,10 +221,10 @@ def test_a_source_bake_that_fails_after_the_geometry_takes_the_cache_back(tmp_pa
     files, state = _files(tmp_path), _scene_state(face)
 
     def fail(self, *_args, **_kw):
-        raise bake_glue.BakeError("the weights could not be read")
+        raise farm_bake.BakeError("the weights could not be read")
 
     monkeypatch.setattr(type(source), "bake", fail)
     with pytest.raises(RuntimeError, match="weights could not be read. Nothing was baked"):
         bpy.ops.wrinkle.bake(frame_start=1, frame_end=3)
     assert _files(tmp_path) == files  # no .abc, no wrinkle_bake/ folder
-    assert _scene_state(face) == state and bake_glue.stand_in(face) is None
+    assert _scene_state(face) == state and farm_bake.stand_in(face) is None

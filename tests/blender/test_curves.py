@@ -8,7 +8,7 @@ import pytest
 
 from tests.blender import scenes
 from wrinkle_addon.core.bando import curves as core_curves
-from wrinkle_addon.glue import frame, status
+from wrinkle_addon.glue import pipeline, status
 
 MID = scenes.HEIGHT / 2
 
@@ -45,7 +45,7 @@ def heights(face):
     interactive edit (what the depsgraph handler does in the interface; it does nothing in
     background mode, so it is called here)."""
     bpy.context.view_layer.update()
-    frame.update_scene(bpy.context.scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
+    pipeline.update_scene(bpy.context.scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
     bpy.context.view_layer.update()
     return -scenes.offsets(face)[:, 1]
 
@@ -168,20 +168,20 @@ def test_the_curves_survive_saving_and_reopening(tmp_blend):
 
 
 def test_bake_wrinkle_map_bakes_the_curves():
-    from wrinkle_addon.glue.maps import bake as mapbake
+    from wrinkle_addon.glue.maps import map_bake
 
     face = uv_face()
     add_curve(face, rest_height=0.0)
-    formed = mapbake.bake_height(face, "MUSCLES")  # no muscles: the curves alone, fully formed
+    formed = map_bake.bake_height(face, "MUSCLES")  # no muscles: the curves alone, fully formed
     rest = np.array([v.co for v in face.data.vertices])
     assert formed.min() < -0.25e-3 and formed.max() > 0.0  # S(1 mm) = -0.3 d: the nearest row
     assert rest[np.argmin(formed), 2] == pytest.approx(MID, abs=0.003)
-    assert np.all(mapbake.bake_height(face, "POSE") == 0.0)  # r = 0 at rest: nothing this frame
+    assert np.all(map_bake.bake_height(face, "POSE") == 0.0)  # r = 0 at rest: nothing this frame
     face.data.shape_keys.key_blocks["BrowsUp"].value = 1.0
     bpy.context.view_layer.update()
-    posed = mapbake.bake_height(face, "POSE")
+    posed = map_bake.bake_height(face, "POSE")
     assert formed.min() < posed.min() < 0.0
-    pd = mapbake.bake_wrinkle_map(face, 128, "MUSCLES")
+    pd = map_bake.bake_wrinkle_map(face, 128, "MUSCLES")
     assert np.abs(pd[..., :2] - 0.5).max() > 0.05  # the map shows the furrow's slopes
 
 

@@ -11,7 +11,7 @@ from tests.blender import exportscenes, scenes
 from wrinkle_addon.glue import images
 from wrinkle_addon.glue.errors import WrinkleError
 from wrinkle_addon.glue.export import package
-from wrinkle_addon.glue.maps import material as wrinklemaps
+from wrinkle_addon.glue.maps import map_material
 
 
 def _write(tmp_path, **kw):
@@ -38,7 +38,7 @@ def test_layout(tmp_path):
     assert w.shape == (exportscenes.LAST, 2, 8) and doc["animation"]["frames"] == list(range(1, 10))
     for f in (1, 5, 9):
         bpy.context.scene.frame_set(f)
-        np.testing.assert_allclose(w[f - 1], wrinklemaps.zone_weights(face), atol=1e-6)
+        np.testing.assert_allclose(w[f - 1], map_material.zone_weights(face), atol=1e-6)
     assert w[4, 0, 0] == pytest.approx(1.0) and w[0, 0, 0] == 0.0
     # the images hold the face's numbers (16-bit PNG, linear)
     maps = face.ewrinkles_face.maps
@@ -64,7 +64,7 @@ def test_import_binds_to_the_shape_keys(tmp_path):
     assert (ex.name, ex.source, ex.shape_key) == ("Brows", "SHAPE_KEY", "BrowsUp")
     assert tuple(ex.weights)[:2] == (1, 1)
     bpy.context.scene.frame_set(5)
-    assert wrinklemaps.zone_weights(face)[0, 0] == pytest.approx(1.0)
+    assert map_material.zone_weights(face)[0, 0] == pytest.approx(1.0)
 
 
 def test_import_falls_back_to_manual_and_refuses_bad_packages(tmp_path):

@@ -24,7 +24,7 @@ import pytest
 from tests.blender import mapscenes, scenes
 from tests.blender.test_curves import add_curve, uv_face
 from wrinkle_addon import sources
-from wrinkle_addon.glue import bake as bake_glue
+from wrinkle_addon.glue import farm_bake
 from wrinkle_addon.glue.bando import fine_tree
 from wrinkle_addon.glue.patterns import shedding, tears
 from wrinkle_addon.glue.registry import WrinkleSource
@@ -77,7 +77,7 @@ def test_free_bake_never_deletes_an_object_the_pointer_was_set_to(tmp_path, targ
 
 def test_a_stand_in_baked_before_the_marker_is_still_freed(tmp_path):
     face, baked = _baked_face(tmp_path)
-    del baked[bake_glue.MARKER]  # as a file baked by an earlier version holds it
+    del baked[farm_bake.MARKER]  # as a file baked by an earlier version holds it
     assert bpy.ops.wrinkle.free_bake() == {"FINISHED"}
     assert "Face Baked" not in bpy.data.objects and not face.hide_render
 
@@ -107,7 +107,7 @@ def test_faces_whose_names_clean_alike_bake_to_files_of_their_own(tmp_path):
     paths = [bpy.path.abspath(f.ewrinkles_face.bake_object.modifiers[0].cache_file.filepath) for f in faces]
     assert paths[0] != paths[1]
     # the file names of the two bakes differ too
-    assert bake_glue.file_stem(faces[0]) != bake_glue.file_stem(faces[1])
+    assert farm_bake.file_stem(faces[0]) != farm_bake.file_stem(faces[1])
 
 
 # --------------------------------------------------------------------------- 12: saving after Free Bake

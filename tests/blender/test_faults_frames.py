@@ -25,12 +25,10 @@ from tests.blender import mapscenes, scenes
 from tests.blender.test_curves import add_curve, uv_face
 from wrinkle_addon import sources
 from wrinkle_addon.core import combine
-from wrinkle_addon.glue import frame as pipeline
-from wrinkle_addon.glue import stage, status
+from wrinkle_addon.glue import pipeline, stage, status
 from wrinkle_addon.glue.bando import fine_tree
 from wrinkle_addon.glue.errors import WrinkleError
-from wrinkle_addon.glue.maps import material as wrinklemaps
-from wrinkle_addon.glue.maps import nodegroups as mapgroup
+from wrinkle_addon.glue.maps import map_material, nodegroups
 from wrinkle_addon.glue.registry import WrinkleSource
 
 
@@ -410,7 +408,7 @@ def test_removing_the_uv_map_pauses_only_the_wrinkle_maps():
     scene = bpy.context.scene
     scene.frame_set(3)
     want = scenes.evaluated_positions(face).copy()
-    tension = mapgroup.read_tension(face.ewrinkles_face.maps.weights_group)
+    tension = nodegroups.read_tension(face.ewrinkles_face.maps.weights_group)
     assert tension[0] > 0.0
     assert np.abs(want - _skin(face)).max() > 1e-4, "no wrinkles"
     scene.frame_set(2)
@@ -418,7 +416,7 @@ def test_removing_the_uv_map_pauses_only_the_wrinkle_maps():
     scene.frame_set(3)
     np.testing.assert_allclose(scenes.evaluated_positions(face), want, atol=1e-6)
     assert status.get(face, pipeline.CHANNEL) == ""
-    message = status.get(face, wrinklemaps.CHANNEL)
+    message = status.get(face, map_material.CHANNEL)
     assert "wrinkle maps" in message.lower() and "no UV map" in message  # the maps' own report
 
 

@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 
 from tests.blender import mapscenes, scenes
-from wrinkle_addon.glue.maps import material as wrinklemaps
-from wrinkle_addon.glue.maps import nodegroups as mapgroup
+from wrinkle_addon.glue.maps import map_material, nodegroups
 
 SIZE = 8
 ODD_KEY = 'Brow "up" \\ L'  # a quote and a backslash: both need escaping in a data path
@@ -113,9 +112,9 @@ def test_a_shape_key_with_quotes_drives_a_map_expression():
     ex = maps.expressions[0]
     ex.source = "SHAPE_KEY"
     ex.shape_key = ODD_KEY
-    assert wrinklemaps.binding_problem(plane, 0) == ""
+    assert map_material.binding_problem(plane, 0) == ""
     ng = maps.weights_group
-    path = f'nodes["{mapgroup.expr_node(0)}"].outputs[0].default_value'
+    path = f'nodes["{nodegroups.expr_node(0)}"].outputs[0].default_value'
     fc = _driver(ng, path)
     assert fc.driver.is_valid and fc.driver.type == "AVERAGE"
     key = plane.data.shape_keys.key_blocks[ODD_KEY]
@@ -123,7 +122,7 @@ def test_a_shape_key_with_quotes_drives_a_map_expression():
         key.value = value
         bpy.context.view_layer.update()
         assert fc.driver.is_valid
-        assert ng.nodes[mapgroup.expr_node(0)].outputs[0].default_value == pytest.approx(value, abs=1e-6)
+        assert ng.nodes[nodegroups.expr_node(0)].outputs[0].default_value == pytest.approx(value, abs=1e-6)
 
 
 # --- NaN settings --------------------------------------------------------------------------
@@ -278,10 +277,10 @@ def test_remove_wrinkle_maps_ignores_a_crafted_previous_normal(value):
     plane = _wired_plane()
     nt = plane.ewrinkles_face.maps.material.node_tree
     bsdf = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
-    nt.nodes[wrinklemaps.BLEND_NODE]["wrinkle_previous_normal"] = _named(value, bsdf.name)
+    nt.nodes[map_material.BLEND_NODE]["wrinkle_previous_normal"] = _named(value, bsdf.name)
     assert bpy.ops.wrinkle.remove_wrinkle_maps.poll()
     assert bpy.ops.wrinkle.remove_wrinkle_maps() == {"FINISHED"}
-    assert wrinklemaps.BLEND_NODE not in nt.nodes
+    assert map_material.BLEND_NODE not in nt.nodes
     assert plane.ewrinkles_face.maps.material is None
 
 
@@ -291,7 +290,7 @@ def test_free_bake_and_the_table_ignore_a_crafted_baked_list(value):
     maps = plane.ewrinkles_face.maps
     maps.weights_group["wrinkle_baked"] = value
     assert bpy.ops.wrinkle.add_map_expression() == {"FINISHED"}  # binds, reading the list
-    assert wrinklemaps.baked_paths(maps.weights_group) <= {"a", "b", "c"}
+    assert map_material.baked_paths(maps.weights_group) <= {"a", "b", "c"}
     if bpy.ops.wrinkle.free_bake.poll():
         assert bpy.ops.wrinkle.free_bake() == {"FINISHED"}
     assert not bpy.ops.wrinkle.free_bake.poll()
@@ -323,18 +322,18 @@ def test_a_weights_group_that_does_not_match_its_layout_tag_is_rebuilt(crafted):
     else:  # the tag says all is there, but a node is gone (deleted by hand, or crafted)
         ng.nodes.remove(ng.nodes["Power 0 3"])
     maps.strength = 0.5  # syncs
-    assert wrinklemaps.status(plane) == ""
+    assert map_material.status(plane) == ""
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
     assert "Power 0 3" in ng.nodes
 
 
 def test_a_blend_group_whose_version_tag_lies_is_completed():
     plane = _wired_plane()
-    ng = bpy.data.node_groups[mapgroup.BLEND_GROUP]
+    ng = bpy.data.node_groups[nodegroups.BLEND_GROUP]
     for name in ("Strength", "Mask B Alpha"):
         ng.interface.remove(next(s for s in ng.interface.items_tree
                                  if s.item_type == "SOCKET" and s.name == name))
-    assert ng["wrinkle_map_version"] == mapgroup.VERSION  # the tag says all is there
+    assert ng["wrinkle_map_version"] == nodegroups.VERSION  # the tag says all is there
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
-    blend = plane.ewrinkles_face.maps.material.node_tree.nodes[wrinklemaps.BLEND_NODE]
+    blend = plane.ewrinkles_face.maps.material.node_tree.nodes[map_material.BLEND_NODE]
     assert "Strength" in blend.inputs and blend.inputs["Mask B Alpha"].links

@@ -13,7 +13,7 @@ import pytest
 from tests.blender import scenes
 from tests.blender.test_curves import add_curve, uv_face
 from tests.blender.test_fine import _carve
-from wrinkle_addon.glue import frame, registry, status, surface
+from wrinkle_addon.glue import pipeline, registry, status, surface
 from wrinkle_addon.glue.bando import fine as fine_glue
 
 
@@ -29,7 +29,7 @@ def _static(face, name):
 
 
 def _full_check():
-    frame.update_scene(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
+    pipeline.update_scene(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
 
 
 # --- 4: a muscle's settings size the work by the mesh, never beyond ----------------------

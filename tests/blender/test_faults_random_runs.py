@@ -24,7 +24,7 @@ import pytest
 
 from tests.blender import scenes
 from tests.blender.test_curves import add_curve, uv_face
-from wrinkle_addon.glue import frame as pipeline
+from wrinkle_addon.glue import pipeline
 
 
 def _internal_errors(*obs):
@@ -107,11 +107,11 @@ def test_a_file_with_a_list_of_the_wrong_type_opens_and_runs(tmp_path):
         import bpy, addon_utils
         addon_utils.enable("wrinkle_addon", default_set=True)
         bpy.ops.wm.open_mainfile(filepath=sys.argv[2])
-        from wrinkle_addon.glue import frame
+        from wrinkle_addon.glue import pipeline
         face = bpy.data.objects["Face"]
         for f in (2, 3):
             bpy.context.scene.frame_set(f)
-        json.dump({"muscles": len(face.ewrinkles_face.muscles), "status": frame.status_of(face)},
+        json.dump({"muscles": len(face.ewrinkles_face.muscles), "status": pipeline.status_of(face)},
                   open(sys.argv[3], "w"))
         bpy.ops.wm.read_factory_settings(use_empty=True)
     """))

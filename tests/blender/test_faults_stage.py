@@ -22,8 +22,7 @@ import numpy as np
 import pytest
 
 from tests.blender import scenes
-from wrinkle_addon.glue import bake as bake_glue
-from wrinkle_addon.glue import frame as pipeline
+from wrinkle_addon.glue import farm_bake, pipeline
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 DISPLACE = 0.01
@@ -284,8 +283,8 @@ def test_cache_without_the_face_mesh_leaves_nothing_behind(tmp_path, monkeypatch
                               as_background_job=False)
     for ob in others:
         bpy.data.objects.remove(ob)
-    real_open = bake_glue._open_cache
-    monkeypatch.setattr(bake_glue, "_open_cache", lambda _path: real_open(wrong))
+    real_open = farm_bake._open_cache
+    monkeypatch.setattr(farm_bake, "_open_cache", lambda _path: real_open(wrong))
     meshes_before = set(bpy.data.meshes.keys())
     with pytest.raises(RuntimeError, match="holds no single mesh"):
         _bake(face)

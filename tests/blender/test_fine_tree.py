@@ -10,8 +10,7 @@ import pytest
 from tests.blender import scenes
 from tests.blender.test_curves import uv_face
 from wrinkle_addon.core.bando import fine, mapped
-from wrinkle_addon.glue import frame as frame_stage
-from wrinkle_addon.glue import meshio, stage, status, surface
+from wrinkle_addon.glue import meshio, pipeline, stage, status, surface
 from wrinkle_addon.glue.bando import fine as fine_glue
 from wrinkle_addon.glue.bando import fine_tree, shading
 
@@ -100,7 +99,7 @@ def test_blender_computes_the_reference_shrinkage_at_every_vertex(driver):
         scene.frame_set(f)  # the viewport's path
         viewport = fine_tree.shrinkage(face).copy()
         in_place.append(not stage.holds_frame(face.data, bpy.context.evaluated_depsgraph_get()))
-        frame_stage.export_frame(scene, face)  # a render's path: the pull stamped in the mesh
+        pipeline.export_frame(scene, face)  # a render's path: the pull stamped in the mesh
         want, unpulled, pull = _reference(face)
         np.testing.assert_allclose(viewport, want, rtol=0, atol=1e-6, err_msg=f"{driver}, viewport {f}")
         np.testing.assert_allclose(fine_tree.shrinkage(face), want, rtol=0, atol=1e-6,
@@ -125,10 +124,10 @@ def test_renders_and_exports_see_the_same_shrinkage_as_the_viewport():
     scene.frame_set(3)
     viewport = fine_tree.shrinkage(face).copy()
     scene.frame_set(1)
-    with frame_stage.suspended():
+    with pipeline.suspended():
         scene.frame_set(3)
     assert np.abs(fine_tree.shrinkage(face) - viewport).max() > 0.05  # not measured yet
-    frame_stage.export_frame(scene, face)
+    pipeline.export_frame(scene, face)
     np.testing.assert_array_equal(fine_tree.shrinkage(face), viewport)
 
 

@@ -6,7 +6,7 @@ import pytest
 
 from tests.blender import mapscenes
 from wrinkle_addon.core.maps import jimenez as wm
-from wrinkle_addon.glue.maps import nodegroups as mapgroup
+from wrinkle_addon.glue.maps import nodegroups
 
 SIZE = 16
 
@@ -63,22 +63,22 @@ def test_zone_clamp_and_a_third_map(render_small, tmp_path):
 
 
 def test_existing_group_is_reused_and_extended():
-    ng = mapgroup.ensure_blend_group(2)
+    ng = nodegroups.ensure_blend_group(2)
     mat = mapscenes.node_material("M")
     node = mat.node_tree.nodes.new("ShaderNodeGroup")
     node.node_tree = ng
     val = mat.node_tree.nodes.new("ShaderNodeValue")
-    mat.node_tree.links.new(val.outputs[0], node.inputs[mapgroup.zone_socket(1, 3)])
-    again = mapgroup.ensure_blend_group(3)
+    mat.node_tree.links.new(val.outputs[0], node.inputs[nodegroups.zone_socket(1, 3)])
+    again = nodegroups.ensure_blend_group(3)
     assert again == ng and len([g for g in bpy.data.node_groups if g.name.startswith("Wrinkle Map")]) == 1
-    assert mapgroup.map_count(ng) == 3
-    assert node.inputs[mapgroup.zone_socket(1, 3)].is_linked  # the link survived the extension
+    assert nodegroups.map_count(ng) == 3
+    assert node.inputs[nodegroups.zone_socket(1, 3)].is_linked  # the link survived the extension
 
 
 def test_group_with_foreign_type_is_refused():
-    bpy.data.node_groups.new(mapgroup.BLEND_GROUP, "GeometryNodeTree")
-    with pytest.raises(mapgroup.MapError, match="not a shader group"):
-        mapgroup.ensure_blend_group(2)
+    bpy.data.node_groups.new(nodegroups.BLEND_GROUP, "GeometryNodeTree")
+    with pytest.raises(nodegroups.MapError, match="not a shader group"):
+        nodegroups.ensure_blend_group(2)
 
 
 def _eevee(scene):

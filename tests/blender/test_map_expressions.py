@@ -7,8 +7,7 @@ import pytest
 
 from tests.blender import mapscenes
 from wrinkle_addon.core.maps import jimenez as wm
-from wrinkle_addon.glue.maps import material as wrinklemaps
-from wrinkle_addon.glue.maps import nodegroups as mapgroup
+from wrinkle_addon.glue.maps import map_material, nodegroups
 
 SIZE = 8
 FLAT = np.tile(np.array([0.5, 0.5, 1.0], np.float32), (SIZE, SIZE, 1))
@@ -20,7 +19,7 @@ def _pd_map(rng):
 
 def _expected(face, values, map_a, mask_a, mask_b, base=FLAT, tension=0.0):
     maps = face.ewrinkles_face.maps
-    sums = wm.expression_sums(values, wrinklemaps.table(maps)) + tension
+    sums = wm.expression_sums(values, map_material.table(maps)) + tension
     w = wm.zone_response(sums, np.array(maps.zone_strength), np.array(maps.zone_power))
     return wm.encode(wm.blend(base, [map_a, np.full_like(map_a, 0.5)], mask_a, mask_b,
                               [w, np.zeros(8)], maps.strength))
@@ -88,9 +87,9 @@ def test_zone_weights_are_what_the_weights_group_computes():
     keys = face.data.shape_keys.key_blocks
     keys["browInnerUp_L"].value, keys["browDown_L"].value = 0.7, 0.5
     bpy.context.view_layer.update()
-    got = wrinklemaps.zone_weights(face)
+    got = map_material.zone_weights(face)
     names = [ex.name for ex in maps.expressions]
-    table = wrinklemaps.table(maps)
+    table = map_material.table(maps)
     anger = 0.5 * table[names.index("Anger")]
     surprise = 0.7 * table[names.index("Surprise")]
     power, strength = np.array(maps.zone_power), np.array(maps.zone_strength)
@@ -140,7 +139,7 @@ def test_a_wrinkle_uv_map_other_than_the_render_one_gets_its_own_tangents(render
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
     assert bpy.ops.wrinkle.load_map_preset(preset="TABLE_1_1") == {"FINISHED"}
     mat = face.ewrinkles_face.maps.material
-    assert mat.node_tree.nodes[wrinklemaps.NORMAL_NODE].uv_map == own
+    assert mat.node_tree.nodes[map_material.NORMAL_NODE].uv_map == own
     mapscenes.show_blend_output(mat)
     me.shape_keys.key_blocks["browInnerUp_L"].value = 1.0
     got = _render(render_small, tmp_path)
@@ -149,7 +148,7 @@ def test_a_wrinkle_uv_map_other_than_the_render_one_gets_its_own_tangents(render
     # back on the render UV map, the extra node goes
     face.ewrinkles_face.maps.uv_map = ""
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
-    assert wrinklemaps.NORMAL_NODE not in mat.node_tree.nodes
+    assert map_material.NORMAL_NODE not in mat.node_tree.nodes
 
 
 @pytest.mark.render
@@ -161,12 +160,12 @@ def test_a_third_map_from_its_panel_slot(render_small, tmp_path):
     map_c = _pd_map(rng)
     maps = face.ewrinkles_face.maps
     maps.map_c = mapscenes.data_image("Third", map_c)
-    assert wrinklemaps.n_maps(maps) == 3
+    assert map_material.n_maps(maps) == 3
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
     assert bpy.ops.wrinkle.load_map_preset(preset="TABLE_1_1") == {"FINISHED"}
     maps.expressions["Surprise"].map_index = 3
     nt = maps.material.node_tree
-    assert nt.nodes["Wrinkle Map 3"].outputs["Color"].links[0].to_socket.name == mapgroup.map_socket(2)
+    assert nt.nodes["Wrinkle Map 3"].outputs["Color"].links[0].to_socket.name == nodegroups.map_socket(2)
     mapscenes.show_blend_output(maps.material)
     face.data.shape_keys.key_blocks["browInnerUp_L"].value = 1.0
     got = _render(render_small, tmp_path)
@@ -325,12 +324,12 @@ def test_bad_input_is_refused_and_leaves_the_material_unchanged(case, tmp_path):
         maps.map_b = mapscenes.data_image("small", np.full((SIZE // 2, SIZE // 2, 4), 0.5))
         match = "differ in size"
     else:
-        ng = bpy.data.node_groups.new(mapgroup.BLEND_GROUP, "ShaderNodeTree")
+        ng = bpy.data.node_groups.new(nodegroups.BLEND_GROUP, "ShaderNodeTree")
         path = tmp_path / "lib.blend"
         bpy.data.libraries.write(str(path), {ng})
         bpy.data.node_groups.remove(ng)
         with bpy.data.libraries.load(str(path), link=True) as (src, dst):
-            dst.node_groups = [mapgroup.BLEND_GROUP]
+            dst.node_groups = [nodegroups.BLEND_GROUP]
         match = "read-only"
     before = sorted((n.name, n.bl_idname) for n in mat.node_tree.nodes)
     links = len(mat.node_tree.links)
@@ -338,7 +337,7 @@ def test_bad_input_is_refused_and_leaves_the_material_unchanged(case, tmp_path):
         bpy.ops.wrinkle.setup_wrinkle_maps()
     assert sorted((n.name, n.bl_idname) for n in mat.node_tree.nodes) == before
     assert len(mat.node_tree.links) == links
-    assert match in wrinklemaps.check(face)
+    assert match in map_material.check(face)
 
 
 @pytest.mark.render
@@ -369,7 +368,7 @@ def test_tension_mode_follows_the_measured_compression_in_renders(render_small, 
     scene.frame_set(3)
     # edges along v shrink by 30 %, along u not: an inner vertex's mean shrinkage is 0.15
     # (0.1 on the borders along v), so each forehead zone weighs about 2 * 0.15
-    tension = mapgroup.read_tension(maps.weights_group)
+    tension = nodegroups.read_tension(maps.weights_group)
     assert all(0.25 < t <= 0.3 + 1e-6 for t in tension[:4]) and tension[4:] == [0.0] * 4
     got3 = _render(render_small, tmp_path, "3.exr")
     want3 = _expected(face, np.zeros(0), map_a, mask_a, mask_b, tension=np.array(tension))

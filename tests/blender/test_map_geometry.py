@@ -22,7 +22,7 @@ import pytest
 
 from tests.blender import mapscenes, scenes
 from wrinkle_addon.glue import images
-from wrinkle_addon.glue.maps import nodegroups as mapgroup
+from wrinkle_addon.glue.maps import nodegroups
 
 ICT = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 SIZE = 128  # 1.25 mm a pixel on the 16 cm wide view; a wrinkle's half cycle spans 5 or more
@@ -80,8 +80,8 @@ def map_normal(pd_pixels):
 
     def normal(nt):
         g = nt.nodes.new("ShaderNodeGroup")
-        g.node_tree = mapgroup.ensure_blend_group(1)
-        inputs = (("Base Normal", "Base", FLAT_BASE), (mapgroup.map_socket(0), "PD", pd_pixels),
+        g.node_tree = nodegroups.ensure_blend_group(1)
+        inputs = (("Base Normal", "Base", FLAT_BASE), (nodegroups.map_socket(0), "PD", pd_pixels),
                   ("Mask A", "Mask A", ZONE_1), ("Mask B", "Mask B", NO_ZONE))
         for socket, name, pixels in inputs:
             tex = nt.nodes.new("ShaderNodeTexImage")
@@ -89,7 +89,7 @@ def map_normal(pd_pixels):
             nt.links.new(tex.outputs["Color"], g.inputs[socket])
             if socket.startswith("Mask"):
                 nt.links.new(tex.outputs["Alpha"], g.inputs[socket + " Alpha"])
-        g.inputs[mapgroup.zone_socket(0, 0)].default_value = 1.0
+        g.inputs[nodegroups.zone_socket(0, 0)].default_value = 1.0
         return g.outputs["Normal"]
 
     return normal

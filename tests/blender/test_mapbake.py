@@ -8,9 +8,9 @@ import pytest
 
 from tests.blender import scenes
 from wrinkle_addon.core.maps import jimenez as wrinkle_maps
-from wrinkle_addon.core.muscles import waters as core_muscles
+from wrinkle_addon.core.muscles import fields
 from wrinkle_addon.glue.errors import WrinkleError
-from wrinkle_addon.glue.maps import bake as mapbake
+from wrinkle_addon.glue.maps import map_bake
 from wrinkle_addon.glue.muscles import objects as muscle_objects
 
 ICT = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
@@ -48,7 +48,7 @@ def region_uv_box(face, muscle, margin):
     me = face.data
     rest = np.empty((len(me.vertices), 3), np.float32)
     me.attributes["position"].data.foreach_get("vector", rest.ravel())
-    region = core_muscles.muscle_field(rest, muscle_objects.to_core(muscle, face)).region
+    region = fields.muscle_field(rest, muscle_objects.to_core(muscle, face)).region
     u = (rest[region, 0] + scenes.WIDTH / 2) / scenes.WIDTH
     v = rest[region, 2] / scenes.HEIGHT
     return u.min() - margin, u.max() + margin, v.min() - margin, v.max() + margin
@@ -67,7 +67,7 @@ def test_muscle_map_wrinkles_only_the_region_with_furrows_across_the_contraction
     assert image.size[:] == (256, 256)
     assert image.colorspace_settings.name == "Non-Color" and not image.is_float  # 8 bits by default
     assert face.ewrinkles_face.maps.map_a == image  # filled in for the material setup
-    pd = mapbake.bake_wrinkle_map(face, R, "MUSCLES")
+    pd = map_bake.bake_wrinkle_map(face, R, "MUSCLES")
     # the same map (the image in 8 bits, where 0.5 is stored as 128/255)
     np.testing.assert_allclose(pd[..., :2].mean(), pixels(image)[..., :2].mean(), atol=1e-3 + 0.5 / 255)
     d = wrinkle_maps.decode(pd[..., :2])
@@ -96,8 +96,8 @@ def test_pose_mode_follows_contraction_and_shape_keys():
     assert np.all(flat[..., :2] == 128 / 255)  # nothing contracted, nothing compressed: flat (0.5 in 8 bits)
     muscle.ewrinkles_muscle.contraction = 1.0
     scene.frame_set(2)
-    pose = mapbake.bake_wrinkle_map(face, 128, "POSE")
-    full = mapbake.bake_wrinkle_map(face, 128, "MUSCLES")
+    pose = map_bake.bake_wrinkle_map(face, 128, "POSE")
+    full = map_bake.bake_wrinkle_map(face, 128, "MUSCLES")
     # one muscle: the pose holds the same wrinkle, scaled by A(eps) <= 1 where the
     # muscle's pull compresses the skin; the muscle map holds it fully formed (A = 1)
     p, f = pose[..., :2] - 0.5, full[..., :2] - 0.5
@@ -109,10 +109,10 @@ def test_pose_mode_follows_contraction_and_shape_keys():
     muscle.ewrinkles_muscle.wrinkles_only = True
     face.data.shape_keys.key_blocks["BrowsUp"].value = 1.0
     scene.frame_set(3)
-    keyed = mapbake.bake_wrinkle_map(face, 128, "POSE")
+    keyed = map_bake.bake_wrinkle_map(face, 128, "POSE")
     assert np.abs(keyed[..., :2] - 0.5).max() > 0.01
     # while Each Muscle Contracted ignores the pose and the Wrinkles Only switch
-    np.testing.assert_allclose(mapbake.bake_wrinkle_map(face, 128, "MUSCLES"), full, atol=1e-6)
+    np.testing.assert_allclose(map_bake.bake_wrinkle_map(face, 128, "MUSCLES"), full, atol=1e-6)
 
 
 def test_pose_map_matches_the_normals_of_the_geometric_wrinkles():
@@ -123,7 +123,7 @@ def test_pose_map_matches_the_normals_of_the_geometric_wrinkles():
     muscle.ewrinkles_muscle.contraction = 1.0
     bpy.context.scene.frame_set(2)
     R = 512
-    pd = mapbake.bake_wrinkle_map(face, R, "POSE")
+    pd = map_bake.bake_wrinkle_map(face, R, "POSE")
     ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
     n = np.empty((len(ev.vertices), 3), np.float32)
     ev.vertex_normals.foreach_get("vector", n.ravel())
@@ -160,7 +160,7 @@ def test_maps_are_8_bit_by_default_and_float_on_request():
                                                 float_precision=precise) == {"FINISHED"}
     floats, byte = bpy.data.images["Float"], bpy.data.images["Byte"]
     assert floats.is_float and floats.depth == 128 and not byte.is_float
-    baked = mapbake.bake_wrinkle_map(face, 256, "MUSCLES")
+    baked = map_bake.bake_wrinkle_map(face, 256, "MUSCLES")
     np.testing.assert_allclose(pixels(floats), baked, atol=1e-7)
     error = np.abs(wrinkle_maps.decode(pixels(byte)[..., :2]) - wrinkle_maps.decode(baked[..., :2]))
     assert error.max() <= 1 / 255 + 1e-6, error.max()
@@ -173,12 +173,12 @@ def test_zone_fields_join_sharper_than_the_masks():
     than the mask m of the zone that dominates, less than the other's."""
     face, muscle = uv_face()
     muscle.ewrinkles_muscle.role, muscle.ewrinkles_muscle.side = "CORRUGATOR", "C"  # zones 5, 6
-    surface = mapbake.Surface(face, need_uv=False)
-    _fields, layer, zones = mapbake.bake_layers(face, "MUSCLES", None, surface)
+    surface = map_bake.Surface(face, need_uv=False)
+    _fields, layer, zones = map_bake.bake_layers(face, "MUSCLES", None, surface)
     assert len(zones) == 3  # the left and right brows, and the vertices outside both
     one_hot = (layer[:, None] == np.arange(len(zones))).astype(np.float64)
-    m = mapbake._soften(surface, one_hot, zones[layer] >= 0, 0.01)
-    w = mapbake.layer_weights(surface, layer, zones, 0.01)
+    m = map_bake._soften(surface, one_hot, zones[layer] >= 0, 0.01)
+    w = map_bake.layer_weights(surface, layer, zones, 0.01)
     np.testing.assert_allclose(w.sum(axis=1), 1.0, atol=1e-6)
     border = (m.max(axis=1) > 0.55) & (m.max(axis=1) < 0.95)
     assert border.sum() > 20
@@ -190,11 +190,11 @@ def test_zone_fields_join_sharper_than_the_masks():
 
 def test_faceted_option_and_height_function():
     face, muscle = uv_face()
-    h = mapbake.bake_height(face, "MUSCLES")
+    h = map_bake.bake_height(face, "MUSCLES")
     assert h.shape == (len(face.data.vertices),) and h.dtype == np.float32
     assert np.abs(h).max() > 1e-4
-    faceted = mapbake.bake_wrinkle_map(face, 128, "MUSCLES", smooth=False)
-    smooth = mapbake.bake_wrinkle_map(face, 128, "MUSCLES")
+    faceted = map_bake.bake_wrinkle_map(face, 128, "MUSCLES", smooth=False)
+    smooth = map_bake.bake_wrinkle_map(face, 128, "MUSCLES")
     assert np.abs(faceted - 0.5)[..., :2].max() > 0.01
     # the same wrinkles either way: the slopes agree on average
     a, b = wrinkle_maps.decode(faceted[..., 1]), wrinkle_maps.decode(smooth[..., 1])
@@ -229,7 +229,7 @@ def test_centre_muscle_fills_both_zones_and_masks_sum_to_one_at_most():
     face, muscle = uv_face()
     muscle.ewrinkles_muscle.role = "CORRUGATOR"
     muscle.ewrinkles_muscle.side = "C"
-    a, b, notes = mapbake.generate_masks(face, 64, "MUSCLES", 0.01)
+    a, b, notes = map_bake.generate_masks(face, 64, "MUSCLES", 0.01)
     assert notes == []
     assert a.max() < 1 / 255 + 1e-6  # zones 1-4 empty
     assert b[..., 0].max() > 0.4 and b[..., 1].max() > 0.4  # Brows L and R
@@ -256,7 +256,7 @@ def test_masks_from_vertex_groups():
     assert np.all(np.diff(column) >= -1e-3)  # a monotone soft border up the patch
     assert 2 < np.sum((column > 0.05) & (column < 0.95)) < 40
     # custom names, in zone order; an empty entry skips a zone
-    a, b, notes = mapbake.generate_masks(face, 64, "VERTEX_GROUPS", 0.0,
+    a, b, notes = map_bake.generate_masks(face, 64, "VERTEX_GROUPS", 0.0,
                                          group_names=", , Wrinkle Zone 3, , , , My Nose, Missing")
     assert b[3, 32, 2] == pytest.approx(0.5, abs=0.01) and b[-3, 32, 2] == 0.0  # zone 7 = nose
     assert any("Missing" in n for n in notes)
@@ -356,7 +356,7 @@ def test_ict_head_forehead_is_wrinkled():
     data = ict.load_ict(ICT)
     face = ict.ict_object(data, name="ICTHead")
     rigging.wrinkle_face(face, data["landmarks"], wrinkles_only=True, refine=False)
-    pd = mapbake.bake_wrinkle_map(face, 256, "MUSCLES")
+    pd = map_bake.bake_wrinkle_map(face, 256, "MUSCLES")
     slope = np.abs(wrinkle_maps.decode(pd[..., :2])).max(axis=-1)
     # the forehead, located through its vertices' UVs
     me = face.data
@@ -391,7 +391,7 @@ def test_edit_mode_is_refused_with_a_clear_message():
         with pytest.raises(RuntimeError, match="Edit Mode"):
             bpy.ops.wrinkle.bake_wrinkle_map(resolution="256")
         with pytest.raises(WrinkleError, match="Edit Mode"):
-            mapbake.generate_masks(face, 64, "MUSCLES", 0.01)
+            map_bake.generate_masks(face, 64, "MUSCLES", 0.01)
         assert _images() == before
     finally:
         bpy.ops.object.mode_set(mode="OBJECT")
@@ -404,15 +404,15 @@ def test_ict_corrugators_own_the_glabella():
     envelopes were first normalised per muscle, the brows zones got 56 vertices and Anger's
     frown lines all but vanished from the maps."""
     from sample_scenes.lib import ict, rigging
-    from wrinkle_addon.core.muscles.waters import muscle_field
+    from wrinkle_addon.core.muscles.fields import muscle_field
     from wrinkle_addon.glue.muscles import objects as muscle_objects
 
     data = ict.load_ict(ICT)
     face = ict.ict_object(data, name="ICTHead")
     rigging.wrinkle_face(face, data["landmarks"], wrinkles_only=True, refine=False)
-    zones = mapbake.muscle_zones(face)
+    zones = map_bake.muscle_zones(face)
     owner = np.where(zones.max(axis=1) > 0, zones.argmax(axis=1), -1)
-    rest = mapbake.Surface(face, need_uv=False).rest
+    rest = map_bake.Surface(face, need_uv=False).rest
     for ob in (o for o in muscle_objects.live_muscles(face) if o.ewrinkles_muscle.role == "CORRUGATOR"):
         region = muscle_field(rest, muscle_objects.to_core(ob, face)).region
         zone = wrinkle_maps.ZONE_OF_ROLE["CORRUGATOR"][0 if ob.ewrinkles_muscle.side == "L" else 1]

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from tests.blender import scenes
-from wrinkle_addon.glue.maps import material
+from wrinkle_addon.glue.maps import nodegroups
 from wrinkle_addon.props import migrate
 
 V02 = Path(__file__).with_name("data") / "wrinkles_v0_2.blend"
@@ -64,7 +64,7 @@ def test_animation_and_drivers_follow_the_new_names(tmp_path):
         scene.frame_set(frame)
         assert sheet.ewrinkles_muscle.contraction == pytest.approx(want)  # the keyframes
         assert linear.ewrinkles_muscle.contraction == pytest.approx(0.8 * want)  # the driver
-        node = ng.nodes[material.mapgroup.expr_node(0)]
+        node = ng.nodes[nodegroups.expr_node(0)]
         assert node.outputs[0].default_value == pytest.approx(want)  # the map row's driver
 
 

@@ -50,8 +50,7 @@ import pytest
 
 from tests.blender import mapscenes
 from wrinkle_addon.glue import stage
-from wrinkle_addon.glue.maps import material as wrinklemaps
-from wrinkle_addon.glue.maps import nodegroups as mapgroup
+from wrinkle_addon.glue.maps import map_material, nodegroups
 
 SNAPSHOTS = Path(__file__).resolve().parent / "snapshots"
 UPDATE = os.environ.get("WRINKLE_UPDATE_SNAPSHOTS") == "1"
@@ -287,7 +286,7 @@ def _face_with_maps(own_uv_map: bool):
     maps.strength = 0.75
     maps.zone_strength[0] = 1.5
     maps.zone_power[1] = 2.0
-    assert wrinklemaps.status(face) == "", wrinklemaps.status(face)
+    assert map_material.status(face) == "", map_material.status(face)
     added = {n.name for n in maps.material.node_tree.nodes} - before
     return face, added
 
@@ -298,15 +297,15 @@ def test_stage_group():
 
 @pytest.mark.parametrize("k", [1, 2, 3])
 def test_map_blend_group(k):
-    ng = mapgroup.ensure_blend_group(k)
-    assert mapgroup.map_count(ng) == k
+    ng = nodegroups.ensure_blend_group(k)
+    assert nodegroups.map_count(ng) == k
     check_snapshot(f"map_blend_k{k}", serialise(ng))
 
 
 def test_weights_group():
     face, _added = _face_with_maps(own_uv_map=False)
     ng = face.ewrinkles_face.maps.weights_group
-    assert ng.name == f"{mapgroup.WEIGHTS_PREFIX} {face.name}"
+    assert ng.name == f"{nodegroups.WEIGHTS_PREFIX} {face.name}"
     check_snapshot("weights_group", serialise(ng))
 
 
@@ -314,7 +313,7 @@ def test_weights_group():
 def test_material_nodes(own_uv_map):
     face, added = _face_with_maps(own_uv_map)
     nt = face.ewrinkles_face.maps.material.node_tree
-    assert (wrinklemaps.NORMAL_NODE in added) == own_uv_map
+    assert (map_material.NORMAL_NODE in added) == own_uv_map
     data = serialise(nt, only=added)
     data["tree"]["material"] = face.ewrinkles_face.maps.material.name
     check_snapshot("material_uv_map" if own_uv_map else "material", data)

@@ -6,7 +6,7 @@ import pytest
 
 from tests.blender import scenes
 from wrinkle_addon.core.muscles import presets
-from wrinkle_addon.glue import frame as pipeline
+from wrinkle_addon.glue import pipeline
 from wrinkle_addon.glue.muscles import objects as muscle_objects
 
 

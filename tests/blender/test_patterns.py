@@ -88,10 +88,10 @@ def test_moving_the_frame_moves_the_pattern_and_the_scene_time_runs_it():
 
 
 def _builds(face):
-    """The build serial number of the patterns' static data (``glue.frame``'s cache)."""
-    from wrinkle_addon.glue import frame as frame_stage
+    """The build serial number of the patterns' static data (``glue.pipeline``'s cache)."""
+    from wrinkle_addon.glue import pipeline
 
-    return frame_stage._cache[face.session_uid].statics["patterns"][2]
+    return pipeline._cache[face.session_uid].statics["patterns"][2]
 
 
 @pytest.mark.parametrize("region", ["RADIUS", "GROUP"])
@@ -127,9 +127,9 @@ def test_an_animated_frame_places_the_pattern_every_frame_without_rebuilding_the
         assert _builds(face) == built, f"rebuilt on frame {f}"
     assert np.abs(h - first).max() > 0.1 * np.abs(first).max() > 0  # the pattern moved
     # a rebuild from scratch gives the same heights
-    from wrinkle_addon.glue import frame as frame_stage
+    from wrinkle_addon.glue import pipeline
 
-    frame_stage.forget(face)
+    pipeline.forget(face)
     np.testing.assert_allclose(heights(face), h, atol=1e-9)
 
 
@@ -271,19 +271,19 @@ def test_a_vertex_group_region_fades_to_zero_at_its_border():
 
 def test_bake_wrinkle_map_bakes_the_patterns():
     from tests.blender.test_curves import uv_face
-    from wrinkle_addon.glue.maps import bake as mapbake
+    from wrinkle_addon.glue.maps import map_bake
 
     face = uv_face()
     lay = _add(face)
     lay.follow_scene = False
     lay.drive, lay.drive_shape_key = "SHAPE_KEY", "BrowsUp"  # nothing at rest
-    formed = mapbake.bake_height(face, "MUSCLES")  # no muscles: the pattern alone, at full strength
+    formed = map_bake.bake_height(face, "MUSCLES")  # no muscles: the pattern alone, at full strength
     assert formed.min() < -1e-4 and formed.max() > 1e-4
-    assert np.all(mapbake.bake_height(face, "POSE") == 0.0)
+    assert np.all(map_bake.bake_height(face, "POSE") == 0.0)
     face.data.shape_keys.key_blocks["BrowsUp"].value = 1.0
     bpy.context.view_layer.update()
-    np.testing.assert_allclose(mapbake.bake_height(face, "POSE"), formed, atol=1e-7)
-    pd = mapbake.bake_wrinkle_map(face, 128, "MUSCLES")
+    np.testing.assert_allclose(map_bake.bake_height(face, "POSE"), formed, atol=1e-7)
+    pd = map_bake.bake_wrinkle_map(face, 128, "MUSCLES")
     assert np.abs(pd[..., :2] - 0.5).max() > 0.05  # the map shows the furrows' slopes
 
 
@@ -348,9 +348,9 @@ def test_layers_stay_off_the_eyelids_and_the_lips():
 
 def heights_of(face):
     bpy.context.view_layer.update()
-    from wrinkle_addon.glue import frame
+    from wrinkle_addon.glue import pipeline
 
-    frame.update_scene(bpy.context.scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
+    pipeline.update_scene(bpy.context.scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
     bpy.context.view_layer.update()
     ev = face.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
     n = len(face.data.vertices)

@@ -4,7 +4,7 @@
 The sample scene's set-up (``sample_scenes/scanned_head_maps.py``: the head, its muscles,
 ``set_up_maps``) bakes the two PD wrinkle maps and generates the zone masks, here at
 256 x 256; at the Surprise, Anger and Surprise + Anger poses the face's zone weights are
-what ``glue.maps.material.zone_weights`` reads from its weights group.  The base map,
+what ``glue.maps.map_material.zone_weights`` reads from its weights group.  The base map,
 maps and masks as stored, with those weights, go to tests/core/glsl_runner.py in a child
 process (OpenGL on Mesa's llvmpipe, no window) with the GLSL file and with the HLSL file
 made GLSL through SPIR-V, and the normals they render must be ``jimenez.blend``'s.  The
@@ -48,14 +48,14 @@ def ict_face():
 def _inputs(face):
     """Base map, wrinkle maps and masks (H, W, 4), row 0 at v = 0, as the material has them."""
     from wrinkle_addon.glue import images
-    from wrinkle_addon.glue.maps import material
+    from wrinkle_addon.glue.maps import map_material
 
     maps = face.ewrinkles_face.maps
     mask_a, mask_b = images.read(maps.mask_a), images.read(maps.mask_b)
     h, w = mask_a.shape[:2]
     base = images.read(maps.base_image) if maps.base_image else np.full((h, w, 4), (0.5, 0.5, 1.0, 1.0))
     wrinkle = []
-    for prop in material.MAP_PROPS[: material.n_maps(maps)]:
+    for prop in map_material.MAP_PROPS[: map_material.n_maps(maps)]:
         image = getattr(maps, prop)  # an empty slot is flat, as the blend group's default
         wrinkle.append(images.read(image) if image else np.full((h, w, 4), (0.5, 0.5, 0.5, 1.0)))
     sizes = {a.shape for a in (base, mask_a, mask_b, *wrinkle)}
@@ -65,7 +65,7 @@ def _inputs(face):
 
 def test_the_ict_heads_maps_render_in_glsl_as_in_numpy(ict_face, tmp_path):
     from sample_scenes import scanned_head_maps as shm
-    from wrinkle_addon.glue.maps import material
+    from wrinkle_addon.glue.maps import map_material
 
     face = ict_face
     maps = face.ewrinkles_face.maps
@@ -74,7 +74,7 @@ def test_the_ict_heads_maps_render_in_glsl_as_in_numpy(ict_face, tmp_path):
     cases, weights = {}, {}
     for name, pose in poses.items():
         shm._pose(face, pose)
-        weights[name] = material.zone_weights(face)
+        weights[name] = map_material.zone_weights(face)
         cases[name] = {"base": base, "maps": wrinkle, "mask_a": mask_a, "mask_b": mask_b,
                        "weights": weights[name] * 1, "strength": np.float32(maps.strength),
                        "difference": np.bool_(maps.difference)}

@@ -7,7 +7,7 @@ import pytest
 
 from sample_scenes.lib import headgen, rigging, scene_setup
 from wrinkle_addon.core import zones
-from wrinkle_addon.glue.maps import bake
+from wrinkle_addon.glue.maps import map_bake
 from wrinkle_addon.glue.muscles import landmarks
 from wrinkle_addon.glue.muscles import objects as muscle_objects
 
@@ -57,7 +57,7 @@ def test_the_landmark_empties_are_placed_with_the_muscle_set(head):
 def test_baked_map_heights_stop_at_eyelids_and_lips(head, mode):
     face, inside = head
     bpy.context.scene.frame_set(10)
-    fields, _layer, _present = bake.bake_layers(face, mode, muscle_objects.live_muscles(face))
+    fields, _layer, _present = map_bake.bake_layers(face, mode, muscle_objects.live_muscles(face))
     assert np.abs(fields[~inside]).max() > 1e-5
     assert np.abs(fields[inside]).max() == 0.0
 

@@ -12,7 +12,7 @@ from tests.core.meshes import grid, squash_vertical
 from wrinkle_addon.core import raster
 from wrinkle_addon.core.bando import curves, field, fine, mapped
 from wrinkle_addon.core.muscles import system
-from wrinkle_addon.core.muscles.waters import LINEAR, SHEET, Muscle
+from wrinkle_addon.core.muscles.muscle import LINEAR, SHEET, Muscle
 from wrinkle_addon.core.patterns import mls, tears
 
 HOSTILE = [0.0, -1.0, 1e-300, 1e-163, 5e-324, 1e300, 1.7e308, math.inf, -math.inf, math.nan, 1e12, 3]

@@ -12,8 +12,8 @@ import pytest
 from tests.core.meshes import grid, squash_vertical
 from tests.core.test_pull_field import forehead
 from tests.core.test_pull_field import sheet as curved_sheet
-from wrinkle_addon.core.muscles import irregularity, system, waters
-from wrinkle_addon.core.muscles.waters import LINEAR, SHEET, Muscle
+from wrinkle_addon.core.muscles import fields, irregularity, system
+from wrinkle_addon.core.muscles.muscle import LINEAR, SHEET, Muscle
 
 NX, NZ = 141, 161  # a flat 0.14 x 0.08 patch, 1 mm across and 0.5 mm up
 K0 = 0.001
@@ -47,7 +47,7 @@ def linear(**kw):
 def static_fields(m, rest):
     """The static amplitude ``H(w) At f`` and envelope ``At f`` as (NZ, NX) images (NaN
     outside the region), and the half cycle."""
-    f = waters.muscle_field(rest, m)
+    f = fields.muscle_field(rest, m)
     amp, env = np.full(len(rest), np.nan), np.full(len(rest), np.nan)
     amp[f.region], env[f.region] = f.amplitude, f.envelope
     return amp.reshape(NZ, NX), env.reshape(NZ, NX), f.half_cycle
@@ -124,13 +124,13 @@ def measure(seed, amount=irregularity.DEFAULT):
 @pytest.mark.parametrize("make", [sheet, linear])
 def test_irregularity_zero_is_the_regular_model_to_the_bit(make):
     rest, edges, tris = flat()
-    plain = waters.muscle_field(rest, make())
+    plain = fields.muscle_field(rest, make())
     for seed in (0, 7, 2**40):
-        zero = waters.muscle_field(rest, make(irregularity=0.0, seed=seed))
+        zero = fields.muscle_field(rest, make(irregularity=0.0, seed=seed))
         np.testing.assert_array_equal(zero.amplitude, plain.amplitude)
         np.testing.assert_array_equal(zero.envelope, plain.envelope)
         np.testing.assert_array_equal(zero.region, plain.region)
-    on = waters.muscle_field(rest, make(irregularity=irregularity.DEFAULT, seed=7))
+    on = fields.muscle_field(rest, make(irregularity=irregularity.DEFAULT, seed=7))
     assert np.abs(on.amplitude - plain.amplitude).max() > 0.3 * K0  # and on, it does change them
     a = system.build_plan(rest, edges, tris, [make()])
     b = system.build_plan(rest, edges, tris, [make(irregularity=0.0, seed=3)])
@@ -156,7 +156,7 @@ def test_the_muscle_sanitizes_irregularity_and_seed():
     assert sheet(seed="x").sanitized().seed == 0 and sheet(seed=12.0).sanitized().seed == 12
     assert sheet(seed=-5).sanitized().seed == -5  # any integer is a seed
     rest = flat()[0]
-    assert np.isfinite(waters.muscle_field(rest, sheet(irregularity=4.0, seed=-(2**70))).amplitude).all()
+    assert np.isfinite(fields.muscle_field(rest, sheet(irregularity=4.0, seed=-(2**70))).amplitude).all()
 
 
 # --------------------------------------------------------------------------- the warp
@@ -215,8 +215,8 @@ def test_seeded_the_same_every_time():
     assert irregularity.uniforms(42, 1, 3).tolist() == [0.8862117123655464, 0.7736616065242934,
                                                         0.25734932967264323]
     rest = flat()[0]
-    one = waters.muscle_field(rest, sheet(irregularity=1.0, seed=42))
-    two = waters.muscle_field(rest, sheet(irregularity=1.0, seed=42))
+    one = fields.muscle_field(rest, sheet(irregularity=1.0, seed=42))
+    two = fields.muscle_field(rest, sheet(irregularity=1.0, seed=42))
     np.testing.assert_array_equal(one.amplitude, two.amplitude)
 
 
@@ -244,7 +244,7 @@ def test_neighbouring_sheets_sharing_a_phase_keep_their_furrows_joined():
     def amplitude(muscles):
         amp = np.zeros(len(rest))
         for m in muscles:
-            f = waters.muscle_field(rest, m)
+            f = fields.muscle_field(rest, m)
             np.add.at(amp, f.region, f.amplitude)
         return amp
 
@@ -264,11 +264,11 @@ def test_mirrored_sheets_join_at_the_midline():
     right = Muscle(attachment=np.array([[-0.075, 0, 0.07], [0.015, 0, 0.07]]),  # mirrored, ends swapped
                    insertion=np.array([[-0.085, 0, 0.02], [0.005, 0, 0.02]]), **kw)
     mid = rest[np.abs(rest[:, 0]) < 1e-12]
-    a, b = waters.muscle_field(mid, left), waters.muscle_field(mid, right)
+    a, b = fields.muscle_field(mid, left), fields.muscle_field(mid, right)
     assert len(a.region) > 50
     np.testing.assert_array_equal(a.region, b.region)
     np.testing.assert_allclose(a.amplitude, b.amplitude, rtol=0, atol=1e-12)
-    plain = waters.muscle_field(mid, replace(left, irregularity=0.0))
+    plain = fields.muscle_field(mid, replace(left, irregularity=0.0))
     assert np.abs(a.amplitude - plain.amplitude).max() > 0.1 * K0
 
 

@@ -86,3 +86,86 @@ def test_every_folder_states_its_rule():
         if any(folder.glob("*.py")):
             readme = folder / "README.md"
             assert readme.is_file() and readme.read_text().strip(), f"{folder.relative_to(PACKAGE.parent)}"
+
+
+ROOT = PACKAGE.parent
+
+
+def _module_name(path):
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _import_graph(files, bare=""):
+    """module -> the modules of ``files`` it imports (at the top or inside a function), a
+    ``from package import name`` counted as an import of the submodule ``name`` when there is
+    one.  ``bare``: the package whose modules are also imported by their bare names (the
+    benchmarks put their own folder on ``sys.path``)."""
+    names = {_module_name(p): p for p in files}
+    graph = {}
+    for name, path in names.items():
+        here = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+        out = set()
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = ".".join(here[: len(here) - node.level + 1] + ([node.module] if node.module else [])) \
+                    if node.level else node.module
+                targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in names else base for a in node.names]
+            else:
+                continue
+            for t in targets:
+                if bare and t not in names and f"{bare}.{t}" in names:
+                    t = f"{bare}.{t}"
+                if t in names and t != name:
+                    out.add(t)
+        graph[name] = out
+    return graph
+
+
+def _circles(graph):
+    """The strongly connected components of more than one module (Tarjan)."""
+    index, low, stack, on, found = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = set()
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                component.add(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_no_module_imports_round_a_circle():
+    # the package's own __init__ registers every layer and is imported by none
+    files = [p for p in _modules() if p != PACKAGE / "__init__.py"]
+    assert _circles(_import_graph(files)) == []
+
+
+def test_no_benchmark_imports_round_a_circle():
+    files = sorted((ROOT / "benchmarks").glob("*.py"))
+    assert _circles(_import_graph(files, bare="benchmarks")) == []
+
+
+def test_a_circle_is_found():
+    assert _circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert _circles({"a": {"b"}, "b": set()}) == []

@@ -8,7 +8,9 @@ import pytest
 from tests.core.meshes import grid, squash_vertical
 from wrinkle_addon.core import mesh
 from wrinkle_addon.core.muscles import system, zhang
-from wrinkle_addon.core.muscles.waters import LINEAR, SHEET, Muscle, muscle_field, radial_falloff
+from wrinkle_addon.core.muscles.fields import muscle_field
+from wrinkle_addon.core.muscles.muscle import LINEAR, SHEET, Muscle
+from wrinkle_addon.core.muscles.waters import radial_falloff
 
 
 def sheet(**kw):

@@ -4,8 +4,8 @@ import numpy as np
 
 from tests.core.meshes import grid
 from tests.core.test_muscles import linear, sheet
+from wrinkle_addon.core.muscles.fields import muscle_field
 from wrinkle_addon.core.muscles.outline import muscle_outline
-from wrinkle_addon.core.muscles.waters import muscle_field
 
 
 def test_sheet_outline_bounds_the_region():

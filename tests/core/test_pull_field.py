@@ -8,7 +8,7 @@ import pytest
 from tests.core.test_muscles import linear
 from wrinkle_addon.core import mesh
 from wrinkle_addon.core.muscles import system
-from wrinkle_addon.core.muscles.waters import SHEET, Muscle
+from wrinkle_addon.core.muscles.muscle import SHEET, Muscle
 
 
 def forehead(nx=141, nz=81, width=0.14, height=0.08, radius=0.06):

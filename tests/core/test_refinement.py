@@ -4,7 +4,7 @@ import numpy as np
 
 from tests.core.meshes import grid
 from wrinkle_addon.core.muscles import refinement
-from wrinkle_addon.core.muscles.waters import SHEET, Muscle
+from wrinkle_addon.core.muscles.muscle import SHEET, Muscle
 
 
 def sheet(**kw):

@@ -6,7 +6,8 @@ import pytest
 
 from tests.core.meshes import grid
 from wrinkle_addon.core.muscles import sphincter, system
-from wrinkle_addon.core.muscles.waters import LINEAR, SHEET, SPHINCTER, Muscle, muscle_field
+from wrinkle_addon.core.muscles.fields import muscle_field
+from wrinkle_addon.core.muscles.muscle import LINEAR, SHEET, SPHINCTER, Muscle
 
 CENTRE = np.array([0.0, 0.0, 0.04])
 

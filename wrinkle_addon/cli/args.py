@@ -5,7 +5,7 @@ Blender, so it is tested in the fast tier."""
 import argparse
 import math
 
-# The exit codes of `ewrinkles` (README, "Batch rendering and farms")
+# The exit codes of `ewrinkles` (README, "The batch command and render farms")
 OK, FAILED, USAGE, NOT_READY, STOPPED = 0, 1, 2, 3, 130
 
 

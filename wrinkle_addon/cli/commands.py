@@ -17,8 +17,7 @@ from pathlib import Path
 
 import bpy
 
-from ..glue import bake as farm_bake
-from ..glue import frame, registry, stage, status
+from ..glue import farm_bake, pipeline, registry, stage, status
 from . import args as cli_args
 from . import files
 from .args import FAILED, NOT_READY, OK, STOPPED, USAGE, UsageError
@@ -198,7 +197,7 @@ def _render_frames(scene, ns, frame_list, todo, finals, out, emit):
     done = 0
     with _Stop() as stop, tempfile.TemporaryDirectory(dir=out, prefix=_TMP_PREFIX) as tmpdir:
         for i, f in enumerate(todo, 1):
-            frame.stage_seconds[0] = 0.0
+            pipeline.stage_seconds[0] = 0.0
             t0 = time.perf_counter()
             try:
                 _render_one(scene, f, finals[f], tmpdir)
@@ -212,7 +211,7 @@ def _render_frames(scene, ns, frame_list, todo, finals, out, emit):
             say(f"frame {f} ({i}/{len(todo)}) in {seconds:.1f} s, "
                 f"elapsed {_clock(elapsed)}, ETA {_clock(eta)}")
             emit({"frame": f, "file": str(finals[f]), "seconds": round(seconds, 3),
-                  "stage_ms": round(frame.stage_seconds[0] * 1000, 2)})
+                  "stage_ms": round(pipeline.stage_seconds[0] * 1000, 2)})
             if stop.asked and i < len(todo):
                 say(f"stopped by Ctrl-C after {done} frames; the frames written are kept, "
                     "--resume renders the rest")
@@ -349,7 +348,7 @@ def _check(ns, emit):
         active = [s for s in registry.sources()
                   if (ob.ewrinkles_face.enabled or not s.geometric) and s.active(ob)]
         lines.append(f'face "{ob.name}": {", ".join(s.label for s in active) or "no active source"}')
-        stage_problem = status.get(ob, frame.CHANNEL)
+        stage_problem = status.get(ob, pipeline.CHANNEL)
         if stage_problem:
             lines.append(f"  problem: {stage_problem}")
         for s in active:

@@ -12,7 +12,7 @@ and the height (H,) along the skin normal, such as Zhang's wrinkle height W.  Th
 
 so the heights of all sources add up along one normal, and a wrinkle never feeds the
 compression it came from (the sources read the skin before any height; a source after one
-that pulls the skin tangentially reads it pulled, ``glue/frame.py``).  All static
+that pulls the skin tangentially reads it pulled, ``glue/pipeline.py``).  All static
 indexing is precomputed in :func:`build`; :func:`combine` is gathers and sums over the
 footprints' union only, never the whole mesh.
 """

@@ -6,7 +6,7 @@ and the panel loop over :func:`sources`; none of them names a method.  The list 
 by ``sources/__init__.py`` (one line per method) when the add-on registers; a test can
 :func:`add` a source of its own and :func:`remove` it again.
 
-Per frame, for each face, the stage (``glue/frame.py``) reads the deformed skin once,
+Per frame, for each face, the stage (``glue/pipeline.py``) reads the deformed skin once,
 asks every active source for its :class:`~..core.combine.Contribution`, sums the
 geometric ones through ``core.combine`` and writes the result once, then writes the
 shading values.
@@ -115,6 +115,14 @@ class WrinkleSource:
         """A message for the panel about the static data (e.g. a muscle without effect)."""
         return ""
 
+    # --- Refine Wrinkling Regions -----------------------------------------------------------
+    def refine_need(self, face, factor, scene):
+        """What this source asks of Refine Wrinkling Regions besides the muscles' half cycles:
+        a callable ``(rest (N, 3), edges (E, 2)) -> indices`` of the edges to split, or None
+        when it asks for nothing.  ``factor``: the operator's edges per half cycle.  The
+        operator splits the union of every source's edges."""
+        return None
+
     # --- farm bake ---------------------------------------------------------------------
     def bake(self, face, scene, frame_start, frame_end, progress):
         """Bake what a farm without the add-on cannot compute and the geometry cache does not
@@ -138,6 +146,12 @@ class WrinkleSource:
 
     def free_bake(self, face):
         """Undo :meth:`bake`."""
+
+    def skin_handed_over(self, old, new):
+        """Bake for Farm hands a face's evaluated skin to its stand-in (``old`` the face,
+        ``new`` the stand-in, which holds the baked wrinkles), and Free Bake hands it back:
+        make what this method has following ``old``'s skin follow ``new``'s (the shedding
+        tears).  Called on every registered source, active or not.  Default: nothing."""
 
     def exporting(self, face):
         """A context manager around the Alembic export of Bake for Farm: what the source

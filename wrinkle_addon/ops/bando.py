@@ -12,8 +12,7 @@ import numpy as np
 from bpy.props import FloatProperty, FloatVectorProperty
 
 from ..core.bando import curves as core_curves
-from ..glue import faces
-from ..glue import frame as pipeline
+from ..glue import faces, pipeline
 from ..glue import surface as face_surface
 from ..glue.bando import curves, shading
 from ..glue.bando import fine as fine_glue

@@ -4,8 +4,7 @@
 import bpy
 from bpy.props import BoolProperty, IntProperty, StringProperty
 
-from ..glue import bake, faces, registry
-from ..glue import frame as pipeline
+from ..glue import faces, farm_bake, pipeline, registry
 from ..glue.errors import WrinkleError
 from ..glue.muscles import objects as muscle_objects
 from ..glue.progress import Progress
@@ -95,20 +94,20 @@ class WRINKLE_OT_bake(bpy.types.Operator):
         scene = context.scene
         start = scene.frame_start if self.frame_start < 0 else self.frame_start
         end = scene.frame_end if self.frame_end < 0 else self.frame_end
-        geometry = bake.has_stage(face)
+        geometry = farm_bake.has_stage(face)
         baking = [s for s in registry.sources() if s.bakes(face)]
         if not geometry and not baking:
             raise WrinkleError(f'"{face.name}" has nothing to bake: it has no geometric wrinkles or wrinkle '
                                "maps, and what else it has Blender computes on a farm by itself")
-        path = self.filepath or bake.default_path(face)
+        path = self.filepath or farm_bake.default_path(face)
         # every precondition, the geometry's and each source's, before anything changes
         if end < start:
-            raise bake.BakeError(f"The frame range {start}-{end} is empty: set End at or after Start")
-        problems = [bake.problem(face, path, start, end)] if geometry else []
+            raise farm_bake.BakeError(f"The frame range {start}-{end} is empty: set End at or after Start")
+        problems = [farm_bake.problem(face, path, start, end)] if geometry else []
         problems += [source.check(face, scene, start, end) for source in baking]
         problems = list(dict.fromkeys(p for p in problems if p))
         if problems:
-            raise bake.BakeError("Nothing was baked: " + "; ".join(problems))
+            raise farm_bake.BakeError("Nothing was baked: " + "; ".join(problems))
         n = end - start + 1
         done = []
         job = None
@@ -118,10 +117,10 @@ class WRINKLE_OT_bake(bpy.types.Operator):
                 if geometry:
                     progress(0, f"frames {start}-{end} to {path}")
                     try:
-                        job = bake.Bake(context, face, path, start, end)
+                        job = farm_bake.Bake(context, face, path, start, end)
                         baked = job.run()
                     except (RuntimeError, OSError) as exc:
-                        raise bake.BakeError(str(exc)) from exc
+                        raise farm_bake.BakeError(str(exc)) from exc
                     done.append(f'frames {start}-{end} to {path}; "{baked.name}" renders them')
                 for k, source in enumerate(baking):
                     offset = (k + 1) * n
@@ -136,7 +135,7 @@ class WRINKLE_OT_bake(bpy.types.Operator):
                 job.undo()
                 done = [line for line in done if not line.startswith(f"frames {start}-{end} to ")]
             made = f"Baked only {'; '.join(done)}" if done else "Nothing was baked"
-            self.report({"ERROR"}, f"{exc}. {made}: {bake.FAILED_ENDING}")
+            self.report({"ERROR"}, f"{exc}. {made}: {farm_bake.FAILED_ENDING}")
             return {"FINISHED"}
         if job is not None:
             job.keep()
@@ -155,7 +154,7 @@ class WRINKLE_OT_free_bake(bpy.types.Operator):
     @classmethod
     def poll(cls, context):
         face = _face(context)
-        if face is None or face.type != "MESH" or not bake.has_any_bake(face):
+        if face is None or face.type != "MESH" or not farm_bake.has_any_bake(face):
             cls.poll_message_set("This face has no bake")
             return False
         return True
@@ -163,7 +162,7 @@ class WRINKLE_OT_free_bake(bpy.types.Operator):
     @guarded
     def execute(self, context):
         face = _face(context)
-        bake.free(face)
+        farm_bake.free(face)
         for source in registry.sources():
             if source.has_bake(face):
                 source.free_bake(face)

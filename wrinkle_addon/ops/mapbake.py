@@ -1,13 +1,13 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Operators that generate wrinkle maps and masks from the face itself (Jimenez et al.
-2011 with the muscles' own wrinkles); the work is ``glue.maps.bake``."""
+2011 with the muscles' own wrinkles); the work is ``glue.maps.map_bake``."""
 
 import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, StringProperty
 
 from ..glue import faces, images
-from ..glue.maps import bake as mapbake
+from ..glue.maps import map_bake
 from ..glue.muscles import objects as muscle_objects
 from ..glue.progress import Progress
 from .common import face_poll, guarded
@@ -37,13 +37,13 @@ class WRINKLE_OT_bake_wrinkle_map(bpy.types.Operator):
         name="Resolution",
         description="Width and height of the map in pixels (wrinkles are low frequency: "
         "the paper used 256 x 256)",
-        items=mapbake.MAP_RESOLUTIONS,
+        items=map_bake.MAP_RESOLUTIONS,
         default="1024",
     )
     mode: EnumProperty(
         name="Wrinkles",
         description="Which wrinkles to bake",
-        items=mapbake.MODES,
+        items=map_bake.MODES,
         default="MUSCLES",
     )
     smooth: BoolProperty(
@@ -80,7 +80,7 @@ class WRINKLE_OT_bake_wrinkle_map(bpy.types.Operator):
     def execute(self, context):
         face = _face(context)
         with Progress(context, "Bake Wrinkle Map") as progress:
-            pd = mapbake.bake_wrinkle_map(face, int(self.resolution), self.mode, self.uv_map,
+            pd = map_bake.bake_wrinkle_map(face, int(self.resolution), self.mode, self.uv_map,
                                           progress=progress, smooth=self.smooth)
             name = self.image_name or f"{face.name} Wrinkle PD"
             # 8 bits by default: a quarter of the memory of floats (Blender holds no half
@@ -109,7 +109,7 @@ class WRINKLE_OT_generate_masks(bpy.types.Operator):
     source: EnumProperty(
         name="Zones From",
         description="Where the 8 zones come from",
-        items=mapbake.SOURCES,
+        items=map_bake.SOURCES,
         default="MUSCLES",
     )
     group_names: StringProperty(
@@ -121,13 +121,13 @@ class WRINKLE_OT_generate_masks(bpy.types.Operator):
     softness: FloatProperty(
         name="Softness",
         description="Width of the soft border around each zone, measured on the skin",
-        default=mapbake.DEFAULT_SOFTNESS, min=0.0, soft_max=0.05, subtype="DISTANCE",
+        default=map_bake.DEFAULT_SOFTNESS, min=0.0, soft_max=0.05, subtype="DISTANCE",
     )
     resolution: EnumProperty(
         name="Resolution",
         description="Width and height of the masks in pixels (masks are low frequency: the "
         "paper used 64 x 64)",
-        items=mapbake.MASK_RESOLUTIONS,
+        items=map_bake.MASK_RESOLUTIONS,
         default="256",
     )
     uv_map: StringProperty(
@@ -153,7 +153,7 @@ class WRINKLE_OT_generate_masks(bpy.types.Operator):
         face = _face(context)
         with Progress(context, "Generate Masks") as progress:
             softness = self.softness / muscle_objects.face_scale(face)  # world -> face-local
-            a, b, notes = mapbake.generate_masks(face, int(self.resolution), self.source, softness,
+            a, b, notes = map_bake.generate_masks(face, int(self.resolution), self.source, softness,
                                                  self.uv_map, self.group_names, progress=progress)
             base = self.image_name or f"{face.name} Wrinkle Mask"
             image_a = images.store(f"{base} A", a, float_buffer=False, non_color=True)

@@ -7,7 +7,7 @@ from bpy.props import BoolProperty, EnumProperty
 from ..core.maps import jimenez as wm
 from ..core.muscles import presets
 from ..glue import faces
-from ..glue.maps import material as wrinklemaps
+from ..glue.maps import map_material
 from ..glue.muscles import objects as muscle_objects
 from .common import face_ok, face_poll, guarded
 
@@ -33,7 +33,7 @@ _face = faces.active
 
 
 def _sync(face):
-    wrinklemaps.sync(face, rebind=True)
+    map_material.sync(face, rebind=True)
 
 
 class WRINKLE_OT_setup_wrinkle_maps(bpy.types.Operator):
@@ -50,7 +50,7 @@ class WRINKLE_OT_setup_wrinkle_maps(bpy.types.Operator):
     def execute(self, context):
         face = _face(context)
         packed = []
-        mat = wrinklemaps.setup(face, packed=packed)
+        mat = map_material.setup(face, packed=packed)
         if packed:
             names = ", ".join(f'"{n}"' for n in packed)
             self.report({"INFO"}, f"Packed {names} into the .blend file, so the pixels made in "
@@ -88,7 +88,7 @@ class WRINKLE_OT_remove_wrinkle_maps(bpy.types.Operator):
         if mat.library is not None:
             self.report({"ERROR"}, f'The material "{mat.name}" is linked and read-only')
             return {"CANCELLED"}
-        wrinklemaps.remove(face)
+        map_material.remove(face)
         return {"FINISHED"}
 
 

@@ -22,13 +22,10 @@ from bpy_extras import view3d_utils
 from mathutils import Vector
 
 from ..core.muscles import landmark_finder, presets
-from ..glue import drivers, faces
-from ..glue import frame as pipeline
-from ..glue.bando import curves as bando_curves
+from ..glue import drivers, faces, pipeline, registry
 from ..glue.errors import WrinkleError
 from ..glue.muscles import landmarks, refine
 from ..glue.muscles import objects as muscle_objects
-from ..glue.patterns import layers as pattern_layers
 from ..glue.progress import Progress
 from .common import face_poll, guarded, select_only
 
@@ -326,7 +323,7 @@ class WRINKLE_OT_drive_contraction(bpy.types.Operator):
 
 
 def _union(needs):
-    """One refinement rule from several (the curves', the pattern layers'), or None."""
+    """One refinement rule from several (the sources' ``refine_need``), or None."""
     if not needs:
         return None
     return lambda rest, edges: functools.reduce(np.union1d, [need(rest, edges) for need in needs],
@@ -361,8 +358,7 @@ class WRINKLE_OT_refine(bpy.types.Operator):
         face = _face(context)
         muscles = muscle_objects.live_muscles(face)
         factor = self.edges_per_half_cycle
-        extras = [need for need in (bando_curves.refine_need(face),
-                                    pattern_layers.refine_need(face, factor, context.scene))
+        extras = [need for need in (s.refine_need(face, factor, context.scene) for s in registry.sources())
                   if need is not None]
         if not muscles and not extras:
             raise WrinkleError("This face has no muscles, wrinkle curves or pattern layers, so there is no "

@@ -8,8 +8,7 @@ import bpy
 from bpy.props import EnumProperty, FloatProperty, IntProperty
 
 from ..core.patterns.functions import KINDS
-from ..glue import faces
-from ..glue import frame as pipeline
+from ..glue import faces, pipeline
 from ..glue.patterns import layers as glue
 from ..glue.patterns import shedding, tears
 from ..glue.progress import Progress

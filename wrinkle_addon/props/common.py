@@ -7,9 +7,9 @@
 def refresh(self, context):
     """Re-evaluate the wrinkles after a parameter change (the frame stage notices the
     change itself by its cache keys, so undo, drivers and animation are safe too)."""
-    from ..glue import frame
+    from ..glue import pipeline
 
-    frame.refresh_all(context)
+    pipeline.refresh_all(context)
 
 
 def is_muscle(self, ob):

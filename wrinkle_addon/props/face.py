@@ -22,9 +22,9 @@ from .muscles import WrinkleMuscleRef
 
 
 def _enabled_update(self, context):
-    from ..glue import frame
+    from ..glue import pipeline
 
-    frame.on_enabled_changed(self.id_data, context)
+    pipeline.on_enabled_changed(self.id_data, context)
 
 
 def _skin_age_update(self, context):

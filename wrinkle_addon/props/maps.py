@@ -20,15 +20,15 @@ from .common import is_muscle
 
 
 def _maps_update(self, context):
-    from ..glue.maps import material as wrinklemaps  # lazily, like frame above
+    from ..glue.maps import map_material  # lazily: props import the glue only in callbacks
 
-    wrinklemaps.sync_quietly(self.id_data)
+    map_material.sync_quietly(self.id_data)
 
 
 def _bindings_update(self, context):
-    from ..glue.maps import material as wrinklemaps
+    from ..glue.maps import map_material
 
-    wrinklemaps.sync_quietly(self.id_data, rebind=True)
+    map_material.sync_quietly(self.id_data, rebind=True)
 
 
 def _restore_finite(owner, name, default):
@@ -123,6 +123,14 @@ class WrinkleMapExpression(bpy.types.PropertyGroup):
     )
 
 
+# The tooltips of the eight wrinkle-map slots, map_a ... map_h ("Wrinkle Map 1" ... "8"),
+# which glue.maps.map_material.MAP_PROPS names
+_MAP_HINTS = (
+    "First wrinkle map (partial-derivative or difference map), e.g. the compressed pose",
+    "Second wrinkle map, e.g. the stretched pose (Oat 2007); may stay empty",
+) + tuple(f"Wrinkle map {k}, for the expressions whose Map is {k} (shown when one is)" for k in range(3, 9))
+
+
 class WrinkleMapSettings(bpy.types.PropertyGroup):
     material: PointerProperty(
         name="Material",
@@ -133,47 +141,6 @@ class WrinkleMapSettings(bpy.types.PropertyGroup):
         name="Base Normal Map",
         description="The face's base tangent-space normal map (empty: flat, or the image "
         "already wired into the material's normal input)",
-        type=bpy.types.Image,
-    )
-    map_a: PointerProperty(
-        name="Wrinkle Map 1",
-        description="First wrinkle map (partial-derivative or difference map), e.g. the "
-        "compressed pose",
-        type=bpy.types.Image,
-    )
-    map_b: PointerProperty(
-        name="Wrinkle Map 2",
-        description="Second wrinkle map, e.g. the stretched pose (Oat 2007); may stay empty",
-        type=bpy.types.Image,
-    )
-    map_c: PointerProperty(
-        name="Wrinkle Map 3",
-        description="Wrinkle map 3, for the expressions whose Map is 3 (shown when one is)",
-        type=bpy.types.Image,
-    )
-    map_d: PointerProperty(
-        name="Wrinkle Map 4",
-        description="Wrinkle map 4, for the expressions whose Map is 4 (shown when one is)",
-        type=bpy.types.Image,
-    )
-    map_e: PointerProperty(
-        name="Wrinkle Map 5",
-        description="Wrinkle map 5, for the expressions whose Map is 5 (shown when one is)",
-        type=bpy.types.Image,
-    )
-    map_f: PointerProperty(
-        name="Wrinkle Map 6",
-        description="Wrinkle map 6, for the expressions whose Map is 6 (shown when one is)",
-        type=bpy.types.Image,
-    )
-    map_g: PointerProperty(
-        name="Wrinkle Map 7",
-        description="Wrinkle map 7, for the expressions whose Map is 7 (shown when one is)",
-        type=bpy.types.Image,
-    )
-    map_h: PointerProperty(
-        name="Wrinkle Map 8",
-        description="Wrinkle map 8, for the expressions whose Map is 8 (shown when one is)",
         type=bpy.types.Image,
     )
     mask_a: PointerProperty(
@@ -250,3 +217,8 @@ class WrinkleMapSettings(bpy.types.PropertyGroup):
         description="The node group that turns expression values into zone weights",
         type=bpy.types.NodeTree,
     )
+
+
+WrinkleMapSettings.__annotations__.update({  # the eight slots, map_a ... map_h
+    f"map_{key}": PointerProperty(name=f"Wrinkle Map {k + 1}", description=hint, type=bpy.types.Image)
+    for k, (key, hint) in enumerate(zip("abcdefgh", _MAP_HINTS))})

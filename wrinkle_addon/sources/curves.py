@@ -97,6 +97,9 @@ class CurveSource(WrinkleSource):
             out[static.footprint.height_verts] = large.heights(static.plan, skin)
         return out
 
+    def refine_need(self, face, factor, scene):
+        return curves.refine_need(face)
+
     def problems(self, face, static):
         return static.problem
 

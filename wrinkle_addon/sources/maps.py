@@ -12,14 +12,14 @@ with no add-on."""
 
 from ..core.combine import Contribution
 from ..core.maps import jimenez
-from ..glue.maps import material
+from ..glue.maps import map_material
 from ..glue.registry import WrinkleSource
 from ..glue.surface import SurfaceError
 from ..ui import maps as maps_ui
 
 
 class _Static:
-    """The tension's plan (``core.maps.jimenez.tension_plan`` of ``material.tension_statics``),
+    """The tension's plan (``core.maps.jimenez.tension_plan`` of ``map_material.tension_statics``),
     or why there is none."""
 
     __slots__ = ("tension", "problem")
@@ -29,19 +29,19 @@ class _Static:
 
 
 class MapSource(WrinkleSource):
-    name = material.CHANNEL
+    name = map_material.CHANNEL
     label = "Wrinkle Maps"
     geometric = False
 
     def active(self, face):
-        return material.wants_tension(face)
+        return map_material.wants_tension(face)
 
     def static_key(self, face, in_scene):
-        return material.tension_key(face)
+        return map_material.tension_key(face)
 
     def build(self, face, mesh, in_scene):
         try:
-            rest_length, edges, vertex_masks = material.tension_statics(face)
+            rest_length, edges, vertex_masks = map_material.tension_statics(face)
             return _Static(jimenez.tension_plan(edges, rest_length, vertex_masks))
         except SurfaceError as exc:  # the UV map is gone, say: the maps' own problem
             return _Static(problem=f"Tension-driven wrinkle maps paused: {exc}")
@@ -59,25 +59,25 @@ class MapSource(WrinkleSource):
         return static.problem
 
     def write_shading(self, face, static, name, values):
-        material.write_tension(face, values)
+        map_material.write_tension(face, values)
 
     def bake(self, face, scene, frame_start, frame_end, progress):
-        k = material.bake_weights(face, scene, frame_start, frame_end, progress)
+        k = map_material.bake_weights(face, scene, frame_start, frame_end, progress)
         return f"{k} wrinkle-map weight channel(s) keyed" if k else ""
 
     def bakes(self, face):
         # a bake of values that no longer need one (the muscle's row was rebound to a shape
         # key, say) is something to do too: baking again frees it
-        return material.needs_bake(face) or self.has_bake(face)
+        return map_material.needs_bake(face) or self.has_bake(face)
 
     def has_bake(self, face):
-        return bool(material.baked_paths(face.ewrinkles_face.maps.weights_group))
+        return bool(map_material.baked_paths(face.ewrinkles_face.maps.weights_group))
 
     def free_bake(self, face):
-        material.free_weights(face)
+        map_material.free_weights(face)
 
     def upgrade(self, face):
-        return material.upgrade(face)
+        return map_material.upgrade(face)
 
     def draw(self, layout, context, face):
         maps_ui.draw(layout, context, face)

@@ -8,10 +8,10 @@ import numpy as np
 
 from ..core import combine
 from ..core.patterns import functions as patterns
-from ..glue import drivers, meshio
-from ..glue import frame as frame_stage
+from ..glue import drivers, meshio, pipeline
 from ..glue.muscles import landmarks
 from ..glue.patterns import layers as glue
+from ..glue.patterns import shedding
 from ..glue.registry import WrinkleSource
 from ..props.patterns import PatternStack
 from ..ui import patterns as patterns_ui
@@ -141,7 +141,7 @@ class PatternSource(WrinkleSource):
     def inputs(self, face, static):
         st = face.ewrinkles_face.patterns.layers
         scene = bpy.context.scene
-        render = frame_stage.render_frame()
+        render = pipeline.render_frame()
         fw, inverse = face.matrix_world, face.matrix_world.inverted_safe()
         out = []
         for i in static.layer_of:
@@ -181,6 +181,12 @@ class PatternSource(WrinkleSource):
         out = np.zeros(len(mesh.rest), np.float32)
         out[static.plan.footprint] = self.contribute(face, static, skin, vals).height
         return out
+
+    def skin_handed_over(self, old, new):
+        shedding.follow(old, new)  # the shedding tears follow the stand-in's skin, and back
+
+    def refine_need(self, face, factor, scene):
+        return glue.refine_need(face, factor, scene)
 
     def problems(self, face, static):
         return static.problem

@@ -4,7 +4,7 @@
 import bpy
 
 from ..core.maps.jimenez import ZONES
-from ..glue.maps import material as wrinklemaps
+from ..glue.maps import map_material
 
 
 class WRINKLE_UL_map_expressions(bpy.types.UIList):
@@ -13,7 +13,7 @@ class WRINKLE_UL_map_expressions(bpy.types.UIList):
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
         face = data.id_data
         row = layout.row(align=True)
-        problem = wrinklemaps.binding_problem(face, index)
+        problem = map_material.binding_problem(face, index)
         row.prop(item, "name", text="", emboss=False, icon="ERROR" if problem else "SHAPEKEY_DATA")
         if item.source == "MANUAL":
             row.prop(item, "value", text="")
@@ -35,7 +35,7 @@ def draw(layout, context, face):
     col.use_property_split = True
     if face.data.uv_layers:
         col.prop_search(m, "uv_map", face.data, "uv_layers")
-    for prop in ("base_image", *wrinklemaps.MAP_PROPS[:wrinklemaps.n_maps(m)], "mask_a", "mask_b"):
+    for prop in ("base_image", *map_material.MAP_PROPS[:map_material.n_maps(m)], "mask_a", "mask_b"):
         col.prop(m, prop)
     col = layout.column(align=True)
     col.label(text="Convert maps you already have")
@@ -78,7 +78,7 @@ def draw(layout, context, face):
             col.prop(ex, "data_path")
         else:
             col.prop(ex, "value")
-        problem = wrinklemaps.binding_problem(face, m.active_expression)
+        problem = map_material.binding_problem(face, m.active_expression)
         if problem:
             col.label(text=problem, icon="ERROR")
         col.prop(ex, "map_index")

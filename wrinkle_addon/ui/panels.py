@@ -4,7 +4,7 @@ section per wrinkle source (``glue.registry``), each drawn by its source."""
 
 import bpy
 
-from ..glue import bake, frame, registry, status
+from ..glue import farm_bake, pipeline, registry, status
 from .common import panel_face, status_box
 
 
@@ -27,7 +27,7 @@ class VIEW3D_PT_wrinkle_face(bpy.types.Panel):
             layout.operator("wrinkle.disable", icon="CANCEL")
         else:
             layout.operator("wrinkle.enable", icon="CHECKMARK")
-        status_box(layout, status.get(face, frame.CHANNEL))
+        status_box(layout, status.get(face, pipeline.CHANNEL))
         layout.prop(s, "strength")
         layout.prop(s, "skin_age", slider=True)
         for source in registry.sources():
@@ -38,7 +38,7 @@ class VIEW3D_PT_wrinkle_face(bpy.types.Panel):
                 source.draw(body, context, face)
         row = layout.row(align=True)
         row.operator("wrinkle.bake", icon="FILE_CACHE")
-        if bake.has_any_bake(face):
+        if farm_bake.has_any_bake(face):
             row.operator("wrinkle.free_bake", icon="TRASH")
         header, body = layout.panel("wrinkle_export", default_closed=True)
         header.label(text="Export")

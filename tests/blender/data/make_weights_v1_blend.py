@@ -26,7 +26,7 @@ import numpy as np  # noqa: E402
 addon_utils.enable("wrinkle_addon", default_set=True)
 from tests.blender import mapscenes, scenes  # noqa: E402  (the checkout's own helpers)
 from tests.blender.test_curves import uv_face  # noqa: E402
-from wrinkle_addon.glue.maps import material  # noqa: E402
+from wrinkle_addon.glue.maps import map_material  # noqa: E402
 
 bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
 scene = bpy.context.scene
@@ -61,12 +61,12 @@ def tension_face(name, x):
 
 
 live, baked = tension_face("Live", 0.0), tension_face("Baked", 0.5)
-assert material.bake_weights(baked, scene, 1, 4) > 8
+assert map_material.bake_weights(baked, scene, 1, 4) > 8
 for face in (live, baked):
     rows = []
     for frame in FRAMES:
         scene.frame_set(frame)
-        rows.append(material.zone_weights(face).ravel())
+        rows.append(map_material.zone_weights(face).ravel())
     face["v1_zone_weights"] = np.array(rows, np.float64).ravel().tolist()
     assert face.ewrinkles_face.maps.weights_group.nodes.get("Tension 0") is not None  # version 1
 scene.frame_set(3)

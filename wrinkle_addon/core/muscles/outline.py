@@ -10,8 +10,8 @@ its plane.
 
 import numpy as np
 
-from . import sphincter
-from .waters import LINEAR, SPHINCTER, region_end, region_start, sheet_frame
+from .muscle import LINEAR, SPHINCTER, ring_frame, sheet_frame
+from .waters import region_end, region_start
 
 
 def _polyline(points, closed=False):
@@ -49,7 +49,7 @@ def muscle_outline(m, arc_steps=16):
             region.append(_polyline(quad, closed=True))
         return {"aoi": np.concatenate(aoi), "region": np.concatenate(region)}
     if m.kind == SPHINCTER:
-        c, a, b, _n, ra, rb = sphincter.frame(m)
+        c, a, b, _n, ra, rb = ring_frame(m)
 
         def arc(rho, t0, t1):
             t = np.linspace(t0, t1, 4 * arc_steps)

@@ -34,7 +34,7 @@ positions and normals.
 import numpy as np
 
 from .. import mesh
-from .waters import muscle_field
+from .fields import muscle_field
 
 MAX_PASSES = 20  # bisection passes: each halves the edges that still break the rule
 

@@ -44,30 +44,11 @@ import numpy as np
 from ..mesh import smoothstep
 from . import irregularity as irregular
 from . import zhang
-from .waters import MuscleField, depth_falloff
+from .muscle import MuscleField, ring_frame
+from .waters import depth_falloff
 
 RAMP = 0.3  # the radial fade at each end of the wrinkling band, as a fraction of its width
 _EPS = 1e-9
-
-
-def frame(m):
-    """(centre, unit a, unit b, normal, |a|, |b|) of the sanitized sphincter ``m``, or None
-    when its axes do not span an ellipse (``b`` is made perpendicular to ``a``)."""
-    if m.attachment.shape[0] < 1 or m.insertion.shape[0] < 2:
-        return None
-    c = m.attachment[0]
-    a = m.insertion[0] - c
-    ra = float(np.linalg.norm(a))
-    if ra < _EPS:
-        return None
-    a = a / ra
-    b = m.insertion[1] - c
-    b = b - np.dot(b, a) * a
-    rb = float(np.linalg.norm(b))
-    if rb < _EPS:
-        return None
-    b = b / rb
-    return c, a, b, np.cross(a, b), ra, rb
 
 
 def half_cycle(a, b, sector, n_wrinkles):
@@ -80,19 +61,6 @@ def half_cycle(a, b, sector, n_wrinkles):
     if na > _EPS:
         b = b - np.dot(b, a) / (na * na) * a
     return float(sector * np.linalg.norm(b) / max(n_wrinkles, 1e-6))
-
-
-def problem(m):
-    """Why the sanitized sphincter ``m`` has no effect, or None."""
-    if m.attachment.shape[0] < 1 or m.insertion.shape[0] < 2:
-        return "a sphincter muscle needs a centre and the ends of its two axes"
-    if frame(m) is None:
-        return "its two axes do not span an ellipse"
-    if m.length < 1.0:
-        return "its outer reach is less than 1 (inside its own ring)"
-    if m.spread <= _EPS:
-        return "its angle is 0"
-    return None
 
 
 def coordinates(rest, fr):
@@ -126,9 +94,9 @@ def band(rho, start, end, fade=True):
 
 
 def field(rest, m):
-    """The static field (``waters.MuscleField``) of the sanitized sphincter ``m`` over the
+    """The static field (``muscle.MuscleField``) of the sanitized sphincter ``m`` over the
     rest positions ``rest`` (N, 3)."""
-    fr = frame(m)
+    fr = ring_frame(m)
     c, _a, _b, _n, _ra, rb = fr
     rho, theta, depth, tangent = coordinates(rest, fr)
     reach = m.length

@@ -26,7 +26,8 @@ import numpy as np
 
 from .. import combine, mesh
 from . import zhang
-from .waters import LINEAR, SPHINCTER, muscle_field
+from .fields import muscle_field
+from .muscle import LINEAR, SPHINCTER
 
 _F = np.float32
 

@@ -1,9 +1,10 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Muscle geometry: Zhang 2005 eqs. 1-3 and 13-14, and Waters' 1987 skin pull.
 
-A muscle is described by :class:`Muscle` in the face's local coordinates.  For
-each muscle, :func:`muscle_field` evaluates, for every rest vertex, the static
-quantities the per-frame evaluation needs:
+A muscle is described by ``muscle.Muscle`` in the face's local coordinates.  For a
+linear or a sheet muscle, :func:`linear_field` and :func:`sheet_field` (chosen by
+``fields.muscle_field``) evaluate, for every rest vertex, the static quantities the
+per-frame evaluation needs (a ``muscle.MuscleField``):
 
 * the Waters area of influence and its pull weight ``a * r`` (Waters' angular
   and radial fall-off),
@@ -36,147 +37,14 @@ Choices, with reasons:
   plane, so a forehead sheet cannot reach the back of the skull.
 """
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..mesh import smoothstep
 from . import irregularity as irregular
 from . import zhang
+from .muscle import MuscleField, sheet_frame
 
-LINEAR = 0
-SHEET = 1
-SPHINCTER = 2  # Waters' third type, an ellipse round an opening: core/muscles/sphincter.py
-MAX_PULL = 0.6  # < 2/pi, see module doc
 _EPS = 1e-9
-
-
-@dataclass(frozen=True)
-class Muscle:
-    """One muscle in the face's local space.  Lengths are local units.
-
-    ``attachment``/``insertion`` are (1, 3) points for a linear muscle and
-    (2, 3) line end points for a sheet muscle.
-    """
-
-    kind: int
-    attachment: np.ndarray
-    insertion: np.ndarray
-    length: float  # R (linear) or Ls (sheet): the extent of the area of influence
-    spread: float  # Phi in radians (linear) or Ws (sheet)
-    spread_c: float  # phi_c in radians (linear) or h_c (sheet): where attenuation starts
-    lambda_w: float = 0.4
-    n_wrinkles: float = 4.0
-    k0: float = 0.001
-    alpha: float = 1.0
-    pull: float = 0.3
-    depth: float = 0.05  # sheet only: half thickness of the slab around the sheet plane
-    wrinkles_only: bool = False
-    fade_ends: bool = True
-    back_reach: float = 0.0  # sheet only: reach behind the attachment line, as a fraction of Ls
-    region_end: float = 1.0  # sheet only: where the wrinkling region ends, as a fraction of Ls
-    irregularity: float = 0.0  # natural irregularity of the furrows, 0 to 4 (0: Zhang's regular ones)
-    seed: int = 0  # the irregularity's pattern: the face's, so that neighbouring muscles join
-
-    def sanitized(self):
-        """A copy with NaN/inf replaced and every parameter clamped to its valid range."""
-
-        def f(x, lo, hi, default):
-            x = float(x)
-            if not np.isfinite(x):
-                x = default
-            return min(max(x, lo), hi)
-
-        def pts(p):
-            p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
-            return np.nan_to_num(p, nan=0.0, posinf=0.0, neginf=0.0)
-
-        return Muscle(
-            kind=int(self.kind) if int(self.kind) in (SHEET, SPHINCTER) else LINEAR,
-            attachment=pts(self.attachment),
-            insertion=pts(self.insertion),
-            length=f(self.length, 0.0, 1e9, 0.0),
-            spread=f(self.spread, 0.0, 1e9 if self.kind == SHEET else np.pi, 0.0),
-            spread_c=f(self.spread_c, 0.0, 1e9, 0.0),
-            lambda_w=f(self.lambda_w, 0.0, 0.999, 0.4),
-            n_wrinkles=f(self.n_wrinkles, 0.0, 1e4, 0.0),
-            k0=f(self.k0, -1e9, 1e9, 0.0),
-            alpha=f(self.alpha, -10.0, 10.0, 1.0),
-            pull=f(self.pull, 0.0, MAX_PULL, 0.0),
-            depth=f(self.depth, 0.0, 1e9, 0.0),
-            wrinkles_only=bool(self.wrinkles_only),
-            fade_ends=bool(self.fade_ends),
-            back_reach=f(self.back_reach, 0.0, 10.0, 0.0),
-            region_end=f(self.region_end, 0.0, 1.0, 1.0),
-            irregularity=f(self.irregularity, 0.0, irregular.MAX_AMOUNT, 0.0),
-            seed=_seed(self.seed),
-        )
-
-    def problem(self):
-        """A human-readable reason why this muscle has no effect, or ``None``."""
-        m = self.sanitized()
-        if m.kind == LINEAR:
-            if np.linalg.norm(m.insertion[0] - m.attachment[0]) < _EPS:
-                return "its attachment equals its insertion"
-            if m.length <= _EPS:
-                return "its radius R is 0"
-            if m.spread <= _EPS:
-                return "its angle is 0"
-        elif m.kind == SPHINCTER:
-            from . import sphincter
-
-            return sphincter.problem(m)
-        else:
-            if m.attachment.shape[0] < 2 or m.insertion.shape[0] < 2:
-                return "a sheet muscle needs two attachment and two insertion points"
-            frame = sheet_frame(m)
-            if frame is None:
-                return "its attachment line and insertion line do not span a sheet"
-            if m.length <= _EPS:
-                return "its length Ls is 0"
-            if m.spread <= _EPS:
-                return "its width Ws is 0"
-        return None
-
-
-@dataclass
-class MuscleField:
-    """Static per-vertex quantities of one muscle (indices into the rest mesh)."""
-
-    aoi: np.ndarray  # int32 vertex indices in the Waters area of influence
-    pull_weight: np.ndarray  # Rs * a * r at those vertices (multiply by contraction * pull)
-    pull_dir: np.ndarray  # (3,) fixed pull direction for sheets; zeros for linear muscles
-    target: np.ndarray  # (3,) attachment point mA (linear) - pull goes toward it
-    region: np.ndarray  # int32 vertex indices in the wrinkling region S_w (eq. 3 / 14)
-    amplitude: np.ndarray  # H(w) * At * fade at region vertices (eq. 4 without A(eps))
-    contraction_dir: np.ndarray  # (len(region), 3) unit direction of contraction (eq. 10)
-    half_cycle: float  # u (eq. 6)
-    coords: np.ndarray = None  # (len(region), 2) the region's points in the muscle's plane:
-    # (along the fibre, across it), local units; where A(eps) is smoothed (system.build_plan)
-    envelope: np.ndarray = None  # (len(region),) At * fade (* slab) in [0, 1], times the
-    # irregularity's depth factor (about 1): the amplitude's envelope without the wrinkle
-    # profile H(w) (refinement)
-
-
-def sheet_frame(m):
-    """Orthonormal frame of a sheet muscle: origin mAc, fibre f, across a, normal n.
-
-    Returns ``None`` when the attachment and insertion lines are degenerate.
-    """
-    a_c = m.attachment[:2].mean(axis=0)
-    i_c = m.insertion[:2].mean(axis=0)
-    fibre = i_c - a_c
-    fl = np.linalg.norm(fibre)
-    if fl < _EPS:
-        return None
-    fibre = fibre / fl
-    across = (m.attachment[1] - m.attachment[0]) + (m.insertion[1] - m.insertion[0])
-    across = across - np.dot(across, fibre) * fibre
-    al = np.linalg.norm(across)
-    if al < _EPS:
-        return None
-    across = across / al
-    return a_c, fibre, across, np.cross(fibre, across), fl
 
 
 def radial_falloff(dist, r_s, r_f, squared=False):
@@ -223,27 +91,6 @@ def depth_falloff(depth, half_thickness):
     return 1.0 - smoothstep((np.asarray(depth) - half) / max(half, _EPS))
 
 
-def _empty_field():
-    z = np.zeros(0, dtype=np.int32)
-    return MuscleField(z, np.zeros(0), np.zeros(3), np.zeros(3), z, np.zeros(0), np.zeros((0, 3)), 0.0,
-                       np.zeros((0, 2)), np.zeros(0))
-
-
-def muscle_field(rest, muscle):
-    """Evaluate one muscle's static field over the rest positions ``rest`` (N, 3)."""
-    m = muscle.sanitized()
-    if m.problem() is not None or len(rest) == 0:
-        return _empty_field()
-    rest = np.asarray(rest, dtype=np.float64)
-    if m.kind == LINEAR:
-        return _linear_field(rest, m)
-    if m.kind == SPHINCTER:
-        from . import sphincter
-
-        return sphincter.field(rest, m)
-    return _sheet_field(rest, m)
-
-
 def region_start(m, length, lo=0.0):
     """Where the wrinkling region starts along ``l`` (eqs. 3, 14) for a muscle whose extent
     along ``l`` is ``[lo, length]``: ``lambda_w`` of the way."""
@@ -257,14 +104,6 @@ def region_end(m):
     are and only leaves out those past its end (the Frontalis draws the brows' skin down to
     below the brows, but its lines are the forehead's)."""
     return m.region_end * m.length
-
-
-def _seed(seed):
-    """``seed`` as an int (0 for a value that is not a finite number)."""
-    try:
-        return int(seed)
-    except (TypeError, ValueError, OverflowError):
-        return 0
 
 
 def _wrinkle_amplitude(l, across, across_c, across_max, m, length, lo=0.0, points=None, end=None):
@@ -291,7 +130,7 @@ def _wrinkle_amplitude(l, across, across_c, across_max, m, length, lo=0.0, point
     return zhang.shape_function(w, u, m.k0, m.alpha) * env, float(u), env
 
 
-def _linear_field(rest, m):
+def linear_field(rest, m):
     m_a, m_i = m.attachment[0], m.insertion[0]
     fibre = m_i - m_a
     r_s = np.linalg.norm(fibre)
@@ -332,7 +171,7 @@ def _plane_coords(rel, fibre):
     return np.stack([rel @ fibre, rel @ (side / n)], axis=1)
 
 
-def _sheet_field(rest, m):
+def sheet_field(rest, m):
     """A sheet, and with ``back_reach`` b > 0 the skin behind its attachment line too: that
     skin (up to B = b Ls behind the line) is pulled toward the line with Waters' profile
     over (B/2, B), so the skin converges on the attachment line from both sides, as the

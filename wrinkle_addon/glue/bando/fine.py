@@ -16,8 +16,7 @@ import numpy as np
 from ...core import raster, skin_age
 from ...core.bando import field, fine, mapped, parts
 from ...core.muscles import system
-from .. import frame as frame_stage
-from .. import images, meshio, nodes, surface
+from .. import images, meshio, nodes, pipeline, surface
 from ..errors import WrinkleError
 from ..muscles import landmarks
 from ..muscles import objects as muscle_objects
@@ -296,7 +295,7 @@ def carve(context, face, progress):
     setup_material(face)
     store_plan(face, s, m, read_fields(face, s, m))  # as stored: what the frame stage plans from
     fine_tree.ensure_modifier(face)
-    frame_stage.forget(face, SOURCE)
+    pipeline.forget(face, SOURCE)
     return results
 
 
@@ -447,4 +446,4 @@ def remove(face):
     fs.image_1 = fs.image_2 = fs.material = None
     fs.furrows = 0
     fs.coverage = 0.0
-    frame_stage.forget(face, SOURCE)
+    pipeline.forget(face, SOURCE)

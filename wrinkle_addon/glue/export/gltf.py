@@ -41,7 +41,7 @@ import bpy
 import numpy as np
 
 from ...core import morphs
-from .. import drivers, frame, images
+from .. import drivers, images, pipeline
 from . import glb, materials, package, sample
 
 TARGET_PREFIX = "Wrinkle"
@@ -341,7 +341,7 @@ def export(context, face, filepath, frame_start, frame_end, tolerance_mm=0.05, m
         raise sample.ExportError(str(exc)) from None
     with tempfile.TemporaryDirectory(prefix="ewrinkles-gltf-") as folder, \
             _export_copy(context, face, fit, frames, folder) as (ob, others), \
-            sample.exporting(context, ob, frame_start, frame_end, others), frame.suspended():
+            sample.exporting(context, ob, frame_start, frame_end, others), pipeline.suspended():
         try:
             bpy.ops.export_scene.gltf(**_exporter_options(path, frame_start, frame_end))
         except RuntimeError as exc:

@@ -22,7 +22,7 @@ import numpy as np
 
 from ...core.maps.jimenez import N_ZONES, ZONES
 from .. import faces, images, nodes
-from ..maps import material as wrinklemaps
+from ..maps import map_material
 from . import sample
 
 FORMAT = "expression-wrinkles/wrinkle-maps"
@@ -30,7 +30,7 @@ VERSION = 1
 JSON_NAME = "wrinkles.json"
 # (settings property, file stem)
 SLOTS = (("base_image", "base_normal"),
-         *((prop, f"map_{k + 1}") for k, prop in enumerate(wrinklemaps.MAP_PROPS)),
+         *((prop, f"map_{k + 1}") for k, prop in enumerate(map_material.MAP_PROPS)),
          ("mask_a", "mask_a"), ("mask_b", "mask_b"))
 IMAGE_FORMATS = {"PNG": ("PNG", "16", ".png"), "OPEN_EXR": ("OPEN_EXR", "32", ".exr")}
 
@@ -60,7 +60,7 @@ def describe(face, image_names):
     """The table part of ``wrinkles.json`` (also the glTF material's extras); ``image_names``
     maps each settings property of :data:`SLOTS` to what the file calls its image."""
     maps = face.ewrinkles_face.maps
-    k = wrinklemaps.n_maps(maps)
+    k = map_material.n_maps(maps)
     return {
         "encoding": "difference" if maps.difference else "partial-derivative",
         "tangent_space": "OpenGL: +X is +U, +Y is +V",
@@ -68,7 +68,7 @@ def describe(face, image_names):
         "strength": float(maps.strength),
         "images": {
             "base": image_names.get("base_image"),
-            "maps": [image_names.get(prop) for prop in wrinklemaps.MAP_PROPS[:k]],
+            "maps": [image_names.get(prop) for prop in map_material.MAP_PROPS[:k]],
             "masks": [image_names.get("mask_a"), image_names.get("mask_b")],
         },
         "zones": zones(),
@@ -164,10 +164,10 @@ def load(folder):
 
 def _validate(doc):
     imgs = doc["images"]
-    if not isinstance(imgs["maps"], list) or not 1 <= len(imgs["maps"]) <= len(wrinklemaps.MAP_PROPS):
+    if not isinstance(imgs["maps"], list) or not 1 <= len(imgs["maps"]) <= len(map_material.MAP_PROPS):
         raise ValueError("it must list 1 to 8 wrinkle maps")
     for e in doc["expressions"]:
-        if len(e["weights"]) != N_ZONES or not 1 <= int(e["map"]) <= len(wrinklemaps.MAP_PROPS):
+        if len(e["weights"]) != N_ZONES or not 1 <= int(e["map"]) <= len(map_material.MAP_PROPS):
             raise ValueError(f"the expression {e.get('name')!r} needs 8 weights and a map from 1 to 8")
         [float(w) for w in e["weights"]]
     for key in ("zone_strength", "zone_response"):
@@ -234,7 +234,7 @@ def read(context, face, folder):
     if uv and uv not in face.data.uv_layers:
         raise PackageError(f'"{face.name}" has no UV map "{uv}", which the package\'s maps use')
     wanted = {"base_image": doc["images"].get("base")}
-    wanted.update({prop: name for prop, name in zip(wrinklemaps.MAP_PROPS, doc["images"]["maps"])})
+    wanted.update({prop: name for prop, name in zip(map_material.MAP_PROPS, doc["images"]["maps"])})
     wanted.update(zip(("mask_a", "mask_b"), doc["images"].get("masks") or (None, None)))
     loaded = {}
     try:
@@ -254,7 +254,7 @@ def read(context, face, folder):
         raise PackageError(str(exc)) from None
     maps = face.ewrinkles_face.maps
     if maps.weights_group is not None:
-        wrinklemaps.remove(face)
+        map_material.remove(face)
     for prop, _stem in SLOTS:
         setattr(maps, prop, loaded.get(prop))
     maps.uv_map = uv
@@ -274,5 +274,5 @@ def read(context, face, folder):
         message = _bind(face, ex, entry)
         if message:
             unbound.append(message)
-    wrinklemaps.setup(face)
+    map_material.setup(face)
     return unbound

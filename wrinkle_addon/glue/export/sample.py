@@ -12,10 +12,9 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from .. import frame as frame_stage
-from .. import meshio, stage, status
+from .. import meshio, pipeline, stage, status
 from ..errors import WrinkleError
-from ..maps import material as wrinklemaps
+from ..maps import map_material
 
 
 class ExportError(WrinkleError):
@@ -146,7 +145,7 @@ def read(context, face, frame_start, frame_end, maps=False, normals=False, progr
     values = np.zeros((len(frames), len(names)), np.float32)
     zones = None
     if has_maps:
-        zones = np.zeros((len(frames), wrinklemaps.n_maps(face.ewrinkles_face.maps), 8), np.float32)
+        zones = np.zeros((len(frames), map_material.n_maps(face.ewrinkles_face.maps), 8), np.float32)
     shading = np.zeros((len(frames), n, 3), np.float32) if normals else None
     part_keys = [(ob, [kb.name for kb in ob.data.shape_keys.key_blocks[1:]] if ob.data.shape_keys else [])
                  for ob in with_parts]
@@ -155,9 +154,9 @@ def read(context, face, frame_start, frame_end, maps=False, normals=False, progr
     try:
         for i, f in enumerate(frames):
             scene.frame_set(f)
-            depsgraph = frame_stage.export_frame(scene, face)
+            depsgraph = pipeline.export_frame(scene, face)
             if stage.find_modifier(face) is not None:
-                why = status.get(face, frame_stage.CHANNEL)
+                why = status.get(face, pipeline.CHANNEL)
                 if why:
                     raise ExportError(f'"{face.name}" on frame {f}: {why}')
                 meshio.read_vectors(me, stage.OFFSET_ATTR, offsets[i])
@@ -167,7 +166,7 @@ def read(context, face, frame_start, frame_end, maps=False, normals=False, progr
             if shading is not None:
                 _vertex_normals(face, shading[i])
             if zones is not None:
-                zones[i] = wrinklemaps.zone_weights(face)
+                zones[i] = map_material.zone_weights(face)
             if progress is not None:
                 progress(i + 1, len(frames))
     finally:

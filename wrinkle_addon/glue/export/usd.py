@@ -48,7 +48,7 @@ import time
 
 import bpy
 
-from .. import faces, frame, stage, status
+from .. import faces, pipeline, stage, status
 from ..errors import WrinkleError
 from ..progress import Progress
 from . import materials, sample
@@ -205,7 +205,7 @@ class _Watch:
             new = current not in self.seen
             # the stage's status is set on every run: a message means it wrote nothing this
             # frame, even where the mesh holds offsets stamped with it from an earlier run
-            why = status.get(face, frame.CHANNEL)
+            why = status.get(face, pipeline.CHANNEL)
             self.seen[current] = not why and stage.holds_frame(face.data, depsgraph)
             self.why = self.why or why
             ev = face.evaluated_get(depsgraph)

@@ -20,7 +20,7 @@ from mathutils import Matrix, Vector
 
 from ...core import skin_age
 from ...core.muscles import sphincter
-from ...core.muscles.waters import LINEAR, SHEET, SPHINCTER, Muscle
+from ...core.muscles.muscle import LINEAR, SHEET, SPHINCTER, Muscle
 
 COLLECTION_NAME = "Wrinkle Muscles"
 RING = 24  # vertices of a sphincter's drawn ring
@@ -136,7 +136,7 @@ def set_up_face(face):
 
 def not_finite(muscle_ob):
     """The panel labels of the muscle's float settings that are NaN.  The core replaces
-    each one (``core.muscles.waters.Muscle.sanitized``); the panel says so."""
+    each one (``core.muscles.muscle.Muscle.sanitized``); the panel says so."""
     s = muscle_ob.ewrinkles_muscle
     props = s.bl_rna.properties
     return [props[k].name for k in FLOATS if not math.isfinite(getattr(s, k))]

@@ -94,6 +94,34 @@ def forget(ob, source_name=None):
             state.plan_key = None
 
 
+def face_state(ob):
+    """The stage's cached state of the face ``ob`` (None before its first frame), for
+    benchmarks and tests; read it, never change it: ``statics`` (source name -> (static key,
+    static data, build serial number)), ``out`` (the offsets of the last frame, (N, 3)),
+    ``mesh`` (the rest mesh, ``registry.MeshArrays``), ``skin`` and ``positions`` (buffers of
+    the last frame)."""
+    return _cache.get(ob.session_uid)
+
+
+def forget_all():
+    """Drop every face's cached state: the next frame builds everything again."""
+    _cache.clear()
+
+
+def write_in_place(ob, ev, skin, offset):
+    """The viewport frame's in-place write of ``skin + offset`` into the evaluated mesh
+    ``ev`` of the face ``ob`` (see :func:`_write_in_place`), on its own: for benchmarks that
+    time it.  False when it is not safe or ``ob`` has no state yet."""
+    state = _cache.get(ob.session_uid)
+    return state is not None and _write_in_place(state, ev, skin, offset)
+
+
+def updated_ids(depsgraph):
+    """``session_uid`` -> (transform, geometry) of every ID ``depsgraph`` updated, as the
+    viewport frame reads them (``update_scene``'s ``changes``)."""
+    return _changes(depsgraph)
+
+
 def _topology(state, me, changes=None):
     """Re-read the rest mesh when its topology or rest positions changed.  ``changes`` (see
     :func:`_static`): an edit of the mesh tags it with every flag, transform included;

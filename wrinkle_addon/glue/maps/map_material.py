@@ -18,12 +18,10 @@ import numpy as np
 from ...core import mesh as core_mesh
 from ...core.maps import jimenez as wm
 from ...core.maps.jimenez import N_ZONES
-from .. import drivers, faces, images, meshio, nodes
-from .. import frame as frame_stage
+from .. import drivers, faces, images, meshio, nodes, pipeline
 from .. import status as status_store
 from ..surface import SurfaceError
-from . import bake as mapbake
-from . import nodegroups as mapgroup
+from . import map_bake, nodegroups
 
 BLEND_NODE = "Wrinkle Map Blend"
 WEIGHTS_NODE = "Wrinkle Weights"
@@ -32,7 +30,8 @@ NORMAL_NODE = "Wrinkle Normal Map"
 # (settings property, image node, blend-group input it feeds)
 MAP_PROPS = ("map_a", "map_b", "map_c", "map_d", "map_e", "map_f", "map_g", "map_h")  # maps 1-8
 IMAGE_NODES = (("base_image", "Wrinkle Base", "Base Normal"),
-               *((prop, f"Wrinkle Map {k + 1}", mapgroup.map_socket(k)) for k, prop in enumerate(MAP_PROPS)),
+               *((prop, f"Wrinkle Map {k + 1}", nodegroups.map_socket(k))
+                 for k, prop in enumerate(MAP_PROPS)),
                ("mask_a", "Wrinkle Mask A", "Mask A"),
                ("mask_b", "Wrinkle Mask B", "Mask B"))
 _OURS = {BLEND_NODE, WEIGHTS_NODE, UV_NODE, NORMAL_NODE} | {n for _p, n, _s in IMAGE_NODES}
@@ -41,7 +40,7 @@ TABLE_CHANNEL = CHANNEL + ".table"  # the status channel of the table's sync
 _problems = {}  # face session_uid -> {expression index: message}
 
 
-MapError = mapgroup.MapError
+MapError = nodegroups.MapError
 
 
 def status(face):
@@ -83,8 +82,8 @@ def zone_weights(face):
         node = ng.nodes.get(name)
         return float(node.outputs[0].default_value) if node is not None else 0.0
 
-    values = np.array([value(mapgroup.expr_node(e)) for e in range(len(maps.expressions))], np.float32)
-    tension = np.array(mapgroup.read_tension(ng), np.float32)
+    values = np.array([value(nodegroups.expr_node(e)) for e in range(len(maps.expressions))], np.float32)
+    tension = np.array(nodegroups.read_tension(ng), np.float32)
     on = np.array([ex.map_index - 1 for ex in maps.expressions], np.int64)
     rows = table(maps)
     out = np.zeros((k, N_ZONES), np.float32)
@@ -148,7 +147,7 @@ def check(face, material=None):
         if a is not None and b is not None and tuple(a.size) != tuple(b.size):
             return (f'The {what} "{a.name}" ({a.size[0]} x {a.size[1]}) and "{b.name}" '
                     f"({b.size[0]} x {b.size[1]}) differ in size")
-    for ng in (bpy.data.node_groups.get(mapgroup.BLEND_GROUP), maps.weights_group):
+    for ng in (bpy.data.node_groups.get(nodegroups.BLEND_GROUP), maps.weights_group):
         if ng is not None and (ng.library is not None or not ng.is_editable):
             return f'The node group "{ng.name}" is linked and read-only: make it local'
     return None
@@ -182,7 +181,7 @@ def setup(face, material=None, packed=None):
     mat = material or maps.material or face.active_material
     nt = mat.node_tree
     bsdf = nodes.principled(nt)
-    blend_group = mapgroup.ensure_blend_group(n_maps(maps))
+    blend_group = nodegroups.ensure_blend_group(n_maps(maps))
     target = nodes.normal_input(nt, bsdf)  # the BSDF's, or the end of a chain of our layers
     old = [(lk.from_node.name, lk.from_socket.identifier) for lk in target.links
            if lk.from_node.name not in _OURS]
@@ -190,7 +189,7 @@ def setup(face, material=None, packed=None):
         maps.base_image = _existing_base(nt, bsdf)
     maps.material = mat
     if maps.weights_group is None:
-        maps.weights_group = bpy.data.node_groups.new(f"{mapgroup.WEIGHTS_PREFIX} {face.name}",
+        maps.weights_group = bpy.data.node_groups.new(f"{nodegroups.WEIGHTS_PREFIX} {face.name}",
                                                       "ShaderNodeTree")
 
     x, y = bsdf.location.x, bsdf.location.y
@@ -342,7 +341,7 @@ def _bind(face, ng):
     problems = {}
     baked = baked_paths(ng)
     for e, ex in enumerate(face.ewrinkles_face.maps.expressions):
-        path = _value_path(mapgroup.expr_node(e))
+        path = _value_path(nodegroups.expr_node(e))
         if path in baked:
             continue
         ng.driver_remove(path)
@@ -364,26 +363,26 @@ def _bind(face, ng):
 def sync(face, rebind=False):
     """Bring the weights group and the blend node in step with the table."""
     maps = face.ewrinkles_face.maps
-    frame_stage.forget(face, CHANNEL)  # masks or UVs may have changed: rebuild the tension statics
+    pipeline.forget(face, CHANNEL)  # masks or UVs may have changed: rebuild the tension statics
     ng = maps.weights_group
     if ng is None or maps.material is None:
         return
     layout = [ex.map_index - 1 for ex in maps.expressions]
     k = n_maps(maps)
-    if not mapgroup.weights_layout_matches(ng, layout, k):
-        mapgroup.build_weights(ng, [ex.name for ex in maps.expressions], layout, k)
-        mapgroup.ensure_blend_group(k)
+    if not nodegroups.weights_layout_matches(ng, layout, k):
+        nodegroups.build_weights(ng, [ex.name for ex in maps.expressions], layout, k)
+        nodegroups.ensure_blend_group(k)
         rebind = True
     for e, ex in enumerate(maps.expressions):
-        node = ng.nodes.get(mapgroup.expr_node(e))
+        node = ng.nodes.get(nodegroups.expr_node(e))
         if node is not None and node.label != ex.name[:60]:
             node.label = ex.name[:60]
     problems = _bind(face, ng) if rebind else _problems.get(face.session_uid, {})
     manual = [ex.value if ex.source == "MANUAL" else (0.0 if e in problems else None)
               for e, ex in enumerate(maps.expressions)]
-    mapgroup.set_weights(ng, table(maps), manual, maps.zone_strength, maps.zone_power, k)
+    nodegroups.set_weights(ng, table(maps), manual, maps.zone_strength, maps.zone_power, k)
     if maps.weight_mode != "TENSION":
-        mapgroup.set_tension(ng, [0.0] * N_ZONES)
+        nodegroups.set_tension(ng, [0.0] * N_ZONES)
     _wire(face)
 
 
@@ -391,7 +390,7 @@ def sync_quietly(face, rebind=False):
     """``sync`` for property updates: a problem becomes a panel message, not an exception."""
     try:
         sync(face, rebind)
-    except mapgroup.MapError as exc:
+    except nodegroups.MapError as exc:
         set_status(face, str(exc))
     else:
         set_status(face, "")
@@ -411,7 +410,7 @@ def tension_key(face):
     to use) and the masks."""
     maps = face.ewrinkles_face.maps
     try:
-        uv = mapbake.uv_layer(face).name
+        uv = map_bake.uv_layer(face).name
     except SurfaceError as exc:  # tension_statics raises it: the source reports it
         uv = (str(exc),)
     return (meshio.topology_key(face.data), uv) + tuple(
@@ -422,7 +421,7 @@ def tension_statics(face):
     """(rest edge lengths, edges, zone masks at the vertices (V, 8)) for
     ``core.maps.jimenez.zone_tension``.  Raises SurfaceError (no UV map, say)."""
     maps = face.ewrinkles_face.maps
-    surface = mapbake.Surface(face)
+    surface = map_bake.Surface(face)
     vertex_uv = np.zeros((len(surface.rest), 2), np.float32)
     vertex_uv[surface.tris.ravel()] = surface.uv.reshape(-1, 2)  # a vertex takes one of its corners' UVs
     vm = np.zeros((len(surface.rest), N_ZONES), np.float32)
@@ -435,8 +434,8 @@ def tension_statics(face):
 def write_tension(face, values):
     """Write this frame's tension-driven zone values into the weights group (unless baked)."""
     ng = face.ewrinkles_face.maps.weights_group
-    if ng is not None and _value_path(mapgroup.TENSION_NODES[0]) not in baked_paths(ng):
-        mapgroup.set_tension(ng, values)
+    if ng is not None and _value_path(nodegroups.TENSION_NODES[0]) not in baked_paths(ng):
+        nodegroups.set_tension(ng, values)
 
 
 def upgrade(face):
@@ -445,16 +444,16 @@ def upgrade(face):
     place: the links, the values, the keys of a farm bake and the expressions' drivers stay.
     Returns a line for the console, or "" when there was nothing to do."""
     ng = face.ewrinkles_face.maps.weights_group
-    if ng is None or ng.library is not None or ng.nodes.get(mapgroup.legacy_tension_node(0)) is None:
+    if ng is None or ng.library is not None or ng.nodes.get(nodegroups.legacy_tension_node(0)) is None:
         return ""
-    outs = mapgroup.add_tension_nodes(ng)
+    outs = nodegroups.add_tension_nodes(ng)
     curves = drivers.action_fcurves(ng)
     baked = baked_paths(ng)
     for z in range(N_ZONES):
-        old = ng.nodes.get(mapgroup.legacy_tension_node(z))
+        old = ng.nodes.get(nodegroups.legacy_tension_node(z))
         if old is None:
             continue
-        name, c = mapgroup.tension_slot(z)
+        name, c = nodegroups.tension_slot(z)
         new = ng.nodes[name].outputs[0]
         new.default_value[c] = old.outputs[0].default_value
         for link in list(old.outputs[0].links):
@@ -471,7 +470,7 @@ def upgrade(face):
         ng.nodes.remove(old)
     if baked:
         ng["wrinkle_baked"] = sorted(baked)
-    mapgroup.upgrade_layout_key(ng)
+    nodegroups.upgrade_layout_key(ng)
     return "its tension-driven zone values are packed three to a colour (weights group version 2)"
 
 
@@ -509,9 +508,9 @@ def bake_weights(face, scene, frame_start, frame_end, progress=None):
         return 0
     free_weights(face)
     muscle_rows = _muscle_rows(face)
-    channels = [(mapgroup.expr_node(e), None) for e in muscle_rows]  # (node, index in its colour)
+    channels = [(nodegroups.expr_node(e), None) for e in muscle_rows]  # (node, index in its colour)
     if wants_tension(face):
-        channels += [mapgroup.tension_slot(z) for z in range(N_ZONES)]
+        channels += [nodegroups.tension_slot(z) for z in range(N_ZONES)]
     if not channels:
         return 0
     frames = range(frame_start, frame_end + 1)

@@ -7,7 +7,8 @@ the live evaluation in the tests).  The bake then adds a stand-in object,
 "<face> Baked": a copy of the face's mesh without shape keys, parented to the
 face, whose Mesh Sequence Cache modifier reads the positions back.  The face
 itself is hidden from renders, and what follows the face's skin through its evaluated
-mesh (a shedding tear) follows the stand-in's instead, which holds the wrinkles.
+mesh (a shedding tear: each source's ``skin_handed_over``) follows the stand-in's instead,
+which holds the wrinkles.
 Nothing of this needs the add-on or Python, so ``blender -b file.blend -a`` on a farm
 renders it identically.  The cache also holds the face's UV maps, frame by frame: a
 Geometry Nodes tree above the stage leaves its shading values there (the fine wrinkles'
@@ -30,7 +31,6 @@ import bpy
 
 from . import registry, stage
 from .errors import WrinkleError
-from .patterns import shedding
 
 BAKE_SUFFIX = " Baked"
 MARKER = "ewrinkles_stand_in_of"  # on the stand-in: the face whose bake made it
@@ -337,8 +337,15 @@ def _stand_in(face, filepath):
     baked[MARKER] = face
     face.hide_render = True
     face.ewrinkles_face.bake_object = baked
-    shedding.follow(face, baked)
+    _hand_over(face, baked)
     return baked
+
+
+def _hand_over(old, new):
+    """What follows ``old``'s evaluated skin follows ``new``'s (every source's
+    ``skin_handed_over``)."""
+    for source in registry.sources():
+        source.skin_handed_over(old, new)
 
 
 def _object_path(face, cache):
@@ -382,7 +389,7 @@ def free(face):
     with the face, or set by hand) is left as it is and the pointer cleared."""
     baked = stand_in(face)
     if baked is not None:
-        shedding.follow(baked, face)
+        _hand_over(baked, face)
         me = baked.data
         cache = next((m.cache_file for m in baked.modifiers if m.type == "MESH_SEQUENCE_CACHE"), None)
         bpy.data.objects.remove(baked)

@@ -19,7 +19,7 @@ from ...core import raster
 from ...core.maps import jimenez as wrinkle_maps
 from ...core.maps import uvmaps
 from ...core.muscles import system
-from ...core.muscles.waters import muscle_field
+from ...core.muscles.fields import muscle_field
 from .. import faces, meshio, registry, surface
 from ..errors import WrinkleError
 from ..muscles import landmarks as muscle_landmarks
@@ -50,7 +50,7 @@ DEFAULT_SOFTNESS = 0.01  # zone border width on the skin, in world units
 DEFAULT_GROUPS = tuple(f"Wrinkle Zone {z + 1}" for z in range(wrinkle_maps.N_ZONES))
 
 
-class BakeError(WrinkleError):
+class MapBakeError(WrinkleError):
     """Bad input for a bake; the message is meant for the user."""
 
 
@@ -58,17 +58,17 @@ class BakeError(WrinkleError):
 def _check_face(face):
     why = faces.problem(face, local=False, object_mode=True)
     if why:
-        raise BakeError(why)
+        raise MapBakeError(why)
 
 
 Surface, uv_layer = surface.Surface, surface.uv_layer  # the maps' callers use these names
 
 
 def evaluated_skin(face, n, depsgraph=None):
-    """:func:`glue.surface.evaluated_skin`, or BakeError when the modifiers remove vertices."""
+    """:func:`glue.surface.evaluated_skin`, or MapBakeError when the modifiers remove vertices."""
     skin = surface.evaluated_skin(face, n, depsgraph)
     if skin is None:
-        raise BakeError(f'The modifiers of "{face.name}" remove vertices: bake the current pose '
+        raise MapBakeError(f'The modifiers of "{face.name}" remove vertices: bake the current pose '
                         "with them disabled, or use Each Muscle Contracted")
     return skin
 
@@ -76,7 +76,7 @@ def evaluated_skin(face, n, depsgraph=None):
 def _muscles(face, muscles):
     muscles = muscle_objects.live_muscles(face) if muscles is None else list(muscles)
     if not muscles:
-        raise BakeError(f'"{face.name}" has no muscles: add muscles (Add Facial Muscle Set) first')
+        raise MapBakeError(f'"{face.name}" has no muscles: add muscles (Add Facial Muscle Set) first')
     return muscles
 
 
@@ -98,7 +98,7 @@ def bake_height(face, mode, muscles=None, surface=None):
     "POSE": the current frame, the deformed skin (shape keys, bones) and the current
     contractions, exactly as the geometric wrinkles are evaluated (``A(eps)`` included).
     ``muscles``: the muscle objects, by default all the face's muscles.  The face's
-    Strength scales both.  Raises BakeError.
+    Strength scales both.  Raises MapBakeError.
     """
     fields, layer, _zone_of_layer = bake_layers(face, mode, muscles, surface)
     return np.take_along_axis(fields, layer[:, None], axis=1)[:, 0]
@@ -125,14 +125,14 @@ def _layers(face, mode, muscles=None, surface=None):
     the posed skin the geometric wrinkles are displaced from, the deformed skin plus the
     muscles' pull when the face shows it (Enable Wrinkles on)."""
     if mode not in ("MUSCLES", "POSE"):
-        raise BakeError(f"Unknown bake mode {mode!r}")
+        raise MapBakeError(f"Unknown bake mode {mode!r}")
     surface = surface or Surface(face, need_uv=False)
     rest = surface.rest
     muscles = muscle_objects.live_muscles(face) if muscles is None else list(muscles)
     skin = evaluated_skin(face, len(rest)) if mode == "POSE" else rest
     extra = _other_heights(face, surface, skin, formed=mode == "MUSCLES")
     if not muscles and extra is None:
-        raise BakeError(f'"{face.name}" has no muscles and no wrinkle curves: add muscles (Add Facial '
+        raise MapBakeError(f'"{face.name}" has no muscles and no wrinkle curves: add muscles (Add Facial '
                         "Muscle Set) or wrinkle curves first")
     core = [muscle_objects.to_core(m, face) for m in muscles]
     strength = float(face.ewrinkles_face.strength)
@@ -169,7 +169,7 @@ def _other_heights(face, surface, skin, formed):
         try:
             h = source.map_heights(face, mesh, skin, formed)
         except WrinkleError as exc:
-            raise BakeError(str(exc)) from None
+            raise MapBakeError(str(exc)) from None
         if h is not None:
             total = h if total is None else total + h
     return total
@@ -207,7 +207,7 @@ def _soften(surface, memberships, inside, softness):
     try:
         t = raster.diffusion_time(float(softness), edge)
     except ValueError as exc:  # a softness of NaN, or of a million edges
-        raise BakeError(f"The zone borders cannot be softened: {exc}") from None
+        raise MapBakeError(f"The zone borders cannot be softened: {exc}") from None
     return raster.soften(memberships, surface.edges, t)
 
 
@@ -224,7 +224,7 @@ def _vertex_zone(face, surface, muscles):
     """The mask zone of every vertex (V,) int, -1 outside every zone."""
     try:
         zones = muscle_zones(face, surface, muscles)
-    except BakeError:  # no muscle has a zone: nothing to keep apart
+    except MapBakeError:  # no muscle has a zone: nothing to keep apart
         return np.full(len(surface.rest), -1)
     return np.where(zones.max(axis=1) > 0, zones.argmax(axis=1), -1)
 
@@ -238,7 +238,7 @@ def _start(face, resolution, uv_map, progress):
     """The checked resolution, the progress callback and the face's :class:`Surface`."""
     R = int(resolution)
     if not 1 <= R <= 16384:
-        raise BakeError(f"Resolution {R} is out of range (1-16384)")
+        raise MapBakeError(f"Resolution {R} is out of range (1-16384)")
     step = progress or (lambda _f, _m: None)
     step(0.0, "reading the mesh")
     return R, step, Surface(face, uv_map)
@@ -256,14 +256,14 @@ def bake_wrinkle_map(face, resolution, mode, uv_map=None, muscles=None, progress
     ``smooth``: slopes from vertex gradients interpolated over the triangles, like smooth
     shading of the geometric wrinkles; else finite differences per pixel, which show the
     triangles as facets.  ``progress(fraction, message)`` is called between the steps.
-    Raises BakeError."""
+    Raises MapBakeError."""
     R, step, surface = _start(face, resolution, uv_map, progress)
     step(0.05, "wrinkle heights")
     fields, layer, zone_of_layer, skin = _layers(face, mode, muscles, surface)
     try:  # in world lengths: a non-uniform object scale changes the slopes
         rest, fields = raster.to_world(skin, surface.tris, fields, face.matrix_world.to_3x3())
     except ValueError as exc:
-        raise BakeError(f'"{face.name}": {exc}; give it a scale to bake') from None
+        raise MapBakeError(f'"{face.name}": {exc}; give it a scale to bake') from None
     step(0.3, f"rasterising {R} x {R}")
     uv, tris = surface.uv, surface.tris
     if smooth:  # the masks' default border, converted to face-local units like the operator's
@@ -302,7 +302,7 @@ def muscle_zones(face, surface=None, muscles=None):
     centre muscle fills the left zone on +X and the right one on -X); a zone takes the
     largest membership of its muscles, and each vertex keeps only the zone whose muscle
     has the largest envelope there.
-    Raises BakeError if no muscle has a role with a zone.
+    Raises MapBakeError if no muscle has a role with a zone.
     """
     surface = surface or Surface(face, need_uv=False)
     muscles = _muscles(face, muscles)
@@ -344,7 +344,7 @@ def muscle_zones(face, surface=None, muscles=None):
             zones[:, z] = np.maximum(zones[:, z], env / top)
             raw[:, z] = np.maximum(raw[:, z], env)
     if used == 0:
-        raise BakeError(f'No muscle of "{face.name}" wrinkles a mask zone: the zones come from '
+        raise MapBakeError(f'No muscle of "{face.name}" wrinkles a mask zone: the zones come from '
                         "the Frontalis, Corrugator, Nasalis and Mentalis roles (Add Facial Muscle Set)")
     # The paper's zones are disjoint parts of the face; muscle regions overlap (the
     # Corrugator's lies inside the inner Frontalis'), and sharing an overlap between zones
@@ -368,7 +368,7 @@ def group_zones(face, group_names=None):
     """Raw zone memberships (V, 8) from 8 vertex groups, and the names not found.
 
     ``group_names``: comma-separated names in zone order (empty: "Wrinkle Zone 1" to
-    "Wrinkle Zone 8"); an empty entry skips its zone.  Raises BakeError if none exists."""
+    "Wrinkle Zone 8"); an empty entry skips its zone.  Raises MapBakeError if none exists."""
     _check_face(face)
     names = _parse_groups(group_names)
     index = {}
@@ -383,7 +383,7 @@ def group_zones(face, group_names=None):
             index[vg.index] = index.get(vg.index, ()) + (z,)
     if not index:
         wanted = ", ".join(f'"{n}"' for n in names if n)
-        raise BakeError(f'"{face.name}" has none of the vertex groups {wanted}')
+        raise MapBakeError(f'"{face.name}" has none of the vertex groups {wanted}')
     vert, group, weight = meshio.vertex_group_weights(face.data, index.keys())
     zones = np.zeros((len(face.data.vertices), wrinkle_maps.N_ZONES), np.float32)
     for gi, zs in index.items():
@@ -396,7 +396,7 @@ def group_zones(face, group_names=None):
 def generate_masks(face, resolution, source, softness, uv_map=None, group_names=None, progress=None):
     """The two RGBA zone masks (R, R, 4) float32 each (``core.maps.uvmaps.mask_images``) and a
     list of notes for the user.  ``softness``: the width of the zone borders, in the face's
-    local units (see ``core.raster.diffusion_time``).  Raises BakeError."""
+    local units (see ``core.raster.diffusion_time``).  Raises MapBakeError."""
     R, step, surface = _start(face, resolution, uv_map, progress)
     notes = []
     if source == "MUSCLES":
@@ -406,7 +406,7 @@ def generate_masks(face, resolution, source, softness, uv_map=None, group_names=
         if missing:
             notes.append("Vertex groups not found (their zones stay empty): " + ", ".join(missing))
     else:
-        raise BakeError(f"Unknown mask source {source!r}")
+        raise MapBakeError(f"Unknown mask source {source!r}")
     step(0.4, "soft borders")
     soft = _soften(surface, zones, zones.max(axis=1) > 0, softness)
     step(0.7, f"rasterising {R} x {R}")
