@@ -86,13 +86,13 @@ def calibrate(face):
     wrinkles the map holds.  Only the zones a pose clearly lights (weight 0.75 or more: its
     own) are set, each by the first map whose pose lights it; a zone a pose lights only in
     passing (Disgust's 0.5 on the chin) keeps the table's weight."""
-    from wrinkle_addon.glue.maps import material
+    from wrinkle_addon.glue.maps import map_material
 
     maps = face.ewrinkles_face.maps
     strength, done = list(maps.zone_strength), set()
     for k, (_name, pose, _expressions) in enumerate(MAPS):
         _pose(face, pose)
-        w = material.zone_weights(face)[k]
+        w = map_material.zone_weights(face)[k]
         for z in range(len(strength)):
             if w[z] >= 0.75 and z not in done:
                 strength[z] = min(2.0, strength[z] / float(w[z]))

@@ -376,13 +376,13 @@ class Child:
     def update(self):
         """What the interface's depsgraph handler does after an edit (it does nothing in
         background mode, so the harness calls the frame stage the same way)."""
-        from wrinkle_addon.glue import frame
+        from wrinkle_addon.glue import pipeline
 
         bpy = self.bpy
         if bpy.context.scene is None:
             return
         bpy.context.view_layer.update()
-        frame.update_scene(bpy.context.scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
+        pipeline.update_scene(bpy.context.scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
 
     def mesh_state(self, ob):
         import numpy as np

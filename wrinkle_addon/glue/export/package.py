@@ -7,7 +7,7 @@ layout, version 1): the base normal map, the K wrinkle maps and the two zone mas
 maps); the expression table (what drives each expression - a shape key, a muscle, any
 property - and its weight in each zone of its map); each zone's Strength and Response;
 and, for a frame range, the zone weights of every map on every frame, exactly as the
-face's weights group computes them for the shader (``maps.material.zone_weights``).
+face's weights group computes them for the shader (``maps.map_material.zone_weights``).
 
 :func:`read` puts a package on a face: the images, the table bound to the face's own
 shape keys (or muscles and objects of the same names), and the zones' settings; the
