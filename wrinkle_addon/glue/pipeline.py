@@ -116,12 +116,6 @@ def write_in_place(ob, ev, skin, offset):
     return state is not None and _write_in_place(state, ev, skin, offset)
 
 
-def updated_ids(depsgraph):
-    """``session_uid`` -> (transform, geometry) of every ID ``depsgraph`` updated, as the
-    viewport frame reads them (``update_scene``'s ``changes``)."""
-    return _changes(depsgraph)
-
-
 def _topology(state, me, changes=None):
     """Re-read the rest mesh when its topology or rest positions changed.  ``changes`` (see
     :func:`_static`): an edit of the mesh tags it with every flag, transform included;
@@ -418,8 +412,9 @@ def _scan(scene, changes=None):
     return found, in_scene
 
 
-def _changes(depsgraph):
-    """``session_uid`` -> (transform, geometry) of every ID ``depsgraph`` updated."""
+def updated_ids(depsgraph):
+    """``session_uid`` -> (transform, geometry) of every ID ``depsgraph`` updated, as
+    the viewport frame reads them (``update_scene``'s ``changes``; benchmarks use it too)."""
     return {u.id.original.session_uid: (u.is_updated_transform, u.is_updated_geometry)
             for u in depsgraph.updates}
 
@@ -445,7 +440,7 @@ def _merge(into, changes):
 def _frame_changes(depsgraph):
     """The IDs updated for this viewport frame, with those of the evaluations since the last
     frame change (:data:`_pending`)."""
-    changes = _merge(_changes(depsgraph), _pending)
+    changes = _merge(updated_ids(depsgraph), _pending)
     _pending.clear()
     return changes
 
@@ -580,7 +575,7 @@ def on_depsgraph_update_post(scene, depsgraph=None):
     screen = getattr(bpy.context, "screen", None)
     if bpy.app.background or _rendering() or (screen is not None and screen.is_animation_playing):
         if depsgraph is not None and depsgraph.mode == "VIEWPORT":
-            _merge(_pending, _changes(depsgraph))
+            _merge(_pending, updated_ids(depsgraph))
         return  # playback is handled frame by frame
     update_scene(scene, bpy.context.evaluated_depsgraph_get(), only_if_changed=True)
 

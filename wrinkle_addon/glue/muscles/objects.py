@@ -87,11 +87,9 @@ FLOATS = ("radius", "angle", "angle_c", "length", "width", "width_c", "depth", "
           "reach", "lambda_w", "k0", "alpha", "pull", "irregularity")
 
 
-# Every number among a muscle's static parameters, read in one call: 1.6 us against 2.6 us
-# for the same attributes one by one (measured, bpy 4.5).
-_NUMBERS = operator.attrgetter(
-    "radius", "angle", "angle_c", "length", "width", "width_c", "depth", "back_reach", "region_end", "reach",
-    "lambda_w", "n_wrinkles", "k0", "alpha", "pull", "wrinkles_only", "fade_ends", "irregularity")
+# Every number among a muscle's static parameters (the floats, the count, the two switches),
+# read in one call: 1.6 us against 2.6 us for the same attributes one by one (bpy 4.5).
+_NUMBERS = operator.attrgetter(*FLOATS, "n_wrinkles", "wrinkles_only", "fade_ends")
 
 
 def parameters(muscle_ob):
