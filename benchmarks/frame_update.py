@@ -41,7 +41,7 @@ addon_utils.enable("wrinkle_addon", default_set=True)
 from wrinkle_addon.core import mesh as core_mesh  # noqa: E402
 from wrinkle_addon.core.muscles import system, zhang  # noqa: E402
 from wrinkle_addon.glue import meshio, pipeline, stage  # noqa: E402
-from wrinkle_addon.glue.muscles import landmarks as operators  # noqa: E402
+from wrinkle_addon.glue.muscles import muscle_set  # noqa: E402
 from wrinkle_addon.glue.muscles import objects as muscle_objects  # noqa: E402
 
 pc = time.perf_counter
@@ -365,7 +365,7 @@ class Bench:
         assert res == {"FINISHED"}, res
         self.stage_mod = stage.find_modifier(self.ob)
         lm = {k: self.landmarks[k] for k in MUSCLE_LANDMARKS}
-        self.muscles = operators.build_muscle_set(bpy.context, self.ob, lm)
+        self.muscles = muscle_set.build_muscle_set(bpy.context, self.ob, lm)
         self.stage_mod.show_viewport = False  # no plan rebuild per key below
         for m in self.muscles:
             for f, v in CONTRACTION_KEYS.get(m.ewrinkles_muscle.role, OTHER_CONTRACTION_KEYS):

@@ -11,7 +11,7 @@ Prints one JSON line::
      "landmark_mm": {"glabella": 1.6, ...}, "method": "openings", "rule_max_mm": {...}}
 
 ``landmark_mm``: per comparable landmark, the distance (mm, in 3D) from what
-``core.muscles.landmark_finder.find_landmarks`` finds on the head (with its shape keys, as
+``core.landmark_finder.find_landmarks`` finds on the head (with its shape keys, as
 *Place Landmarks* runs it; ``method`` is the rule that fitted) to the reference point below;
 ``landmark_max_mm`` their largest (the goal: 5 mm or less).  ``rule_max_mm``: the same
 largest distance with each rule run on its own.  ``--npz`` runs it on any head with ICT's
@@ -63,7 +63,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from wrinkle_addon.core.muscles import landmark_finder  # noqa: E402
+from wrinkle_addon.core import landmark_finder  # noqa: E402
 
 DEFAULT_NPZ = ROOT / "wrinkle_addon" / "data" / "ict_head.npz"
 REFERENCE_NAME = "ict_head_landmarks.json"

@@ -8,7 +8,7 @@ Z up and the face toward -Y: (x, y, z) -> (x, -z, y) * 0.01, a proper rotation,
 so the character's left stays +X.
 
 The landmarks have the same names as ``headgen.make_head``'s. The eight the add-on
-uses come from its own finder (``wrinkle_addon.core.muscles.landmark_finder``, which
+uses come from its own finder (``wrinkle_addon.core.landmark_finder``, which
 reads the eye and mouth openings here), the right side mirrored; headgen's extra
 names are frontal vertices at fixed offsets from those (or, for the lips, the most
 forward midline vertex in a height band).
@@ -50,7 +50,7 @@ def _find_landmarks(pos, quads):
     """``headgen.LANDMARK_NAMES`` -> (3,) float64 point: the add-on's eight from its own
     finder (``landmark_finder``), their right-side mirrors, and headgen's extra names as
     frontal vertices at offsets from them."""
-    from wrinkle_addon.core.muscles import landmark_finder
+    from wrinkle_addon.core import landmark_finder
 
     found, _method, _message = landmark_finder.find_landmarks(pos, quads)
     p = pos.astype(np.float64)

@@ -19,7 +19,7 @@ def wrinkle_face(face, landmarks, wrinkles_only=False, refine=True):
     activate(face)
     bpy.ops.wrinkle.enable()
     # imported here, after the add-on is enabled, so Blender does not reload it
-    from wrinkle_addon.glue.muscles import landmarks as muscle_set
+    from wrinkle_addon.glue.muscles import muscle_set
 
     local = {k: np.asarray(landmarks[k], float) for k in LANDMARK_KEYS}
     muscles = muscle_set.build_muscle_set(bpy.context, face, local)

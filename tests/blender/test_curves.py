@@ -248,9 +248,9 @@ def test_refine_splits_the_edges_around_a_curve_only():
     assert bpy.ops.wrinkle.refine() == {"FINISHED"}  # no muscles: the curves' rule alone
     rest = meshio.read_vectors(face.data, "position").astype(np.float64)
     edges = meshio.read_edges(face.data).astype(np.int64)
-    from wrinkle_addon.glue.bando import curves
+    from wrinkle_addon.glue import curve_objects
 
-    limit = core_curves.edge_limits(rest, edges, curves.face_space_samples(ob, face), [0.003])
+    limit = core_curves.edge_limits(rest, edges, curve_objects.face_space_samples(ob, face), [0.003])
     length = np.linalg.norm(rest[edges[:, 1]] - rest[edges[:, 0]], axis=1)
     assert np.all(length <= limit + 1e-9)
     assert before < len(face.data.vertices) < 3 * before  # refined around the curve, not everywhere

@@ -51,9 +51,9 @@ def _curves(face):
 
 def _samples(face):
     """Each curve sampled densely in the face's space, lowest curve first."""
-    from wrinkle_addon.glue.bando import curves
+    from wrinkle_addon.glue import curve_objects
 
-    out = [np.concatenate(curves.face_space_samples(ob, face)) for ob in _curves(face)]
+    out = [np.concatenate(curve_objects.face_space_samples(ob, face)) for ob in _curves(face)]
     return sorted(out, key=lambda p: p[:, 2].mean())
 
 

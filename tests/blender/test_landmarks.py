@@ -1,4 +1,4 @@
-"""Place Landmarks: the operator finds the landmarks on the face (core.muscles.landmark_finder),
+"""Place Landmarks: the operator finds the landmarks on the face (core.landmark_finder),
 reports the rule it used, warns when it fell back to the bounding box, and is undoable."""
 
 import types
@@ -9,13 +9,12 @@ import numpy as np
 import pytest
 
 from sample_scenes.lib import ict, scene_setup
-from wrinkle_addon.core.muscles import landmark_finder, presets
-from wrinkle_addon.glue import meshio
-from wrinkle_addon.glue.muscles import landmarks
-from wrinkle_addon.ops.muscles import WRINKLE_OT_add_landmarks
+from wrinkle_addon.core import landmark_finder
+from wrinkle_addon.glue import landmarks, meshio
+from wrinkle_addon.ops.face import WRINKLE_OT_add_landmarks
 
 ICT = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
-NAMES = [k for k, _l, _d in presets.LANDMARKS]
+NAMES = [k for k, _l, _d in landmark_finder.LANDMARKS]
 
 
 def _activate(ob):

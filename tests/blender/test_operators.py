@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from tests.blender import scenes
+from wrinkle_addon.core import landmark_finder
 from wrinkle_addon.core.muscles import presets
 from wrinkle_addon.glue import pipeline
 from wrinkle_addon.glue.muscles import objects as muscle_objects
@@ -34,12 +35,12 @@ def test_refine_keeps_uvs_shape_keys_vertex_groups_and_materials():
     keys["Basis"].points.foreach_get("co", basis)
     assert np.abs(brows - basis).max() > 0.005  # the new vertices carry the shape key too
     # every half cycle now spans at least 4 edges inside the wrinkling region
-    from wrinkle_addon.core.muscles import refinement
+    from wrinkle_addon.core.muscles import resolution
     from wrinkle_addon.glue import meshio
 
     core = [muscle_objects.to_core(muscle, face)]
     rest, edges = meshio.read_vectors(me, "position"), meshio.read_edges(me)
-    assert len(refinement.refine_edges(rest, edges, core, 4)) == 0
+    assert len(resolution.refine_edges(rest, edges, core, 4)) == 0
     bpy.context.scene.frame_set(2)
     assert pipeline.status_of(face) == ""
 
@@ -48,7 +49,7 @@ def test_muscle_set_and_expressions():
     face = scenes.make_face()
     bpy.ops.wrinkle.enable()
     bpy.ops.wrinkle.add_landmarks()
-    assert sum(ob.name.startswith("WL ") for ob in bpy.data.objects) == len(presets.LANDMARKS)
+    assert sum(ob.name.startswith("WL ") for ob in bpy.data.objects) == len(landmark_finder.LANDMARKS)
     bpy.context.view_layer.objects.active = face
     bpy.ops.wrinkle.add_muscle_set()
     muscles = muscle_objects.live_muscles(face)
@@ -83,7 +84,7 @@ def test_muscle_set_and_expressions():
 
 
 def test_mirrored_pairs_are_symmetric():
-    lm = presets.estimate_landmarks((-0.08, -0.1, 0.0), (0.08, 0.1, 0.25))
+    lm = landmark_finder.estimate_landmarks((-0.08, -0.1, 0.0), (0.08, 0.1, 0.25))
     layout = presets.layout(lm)
     by_key = {(role, side): pts for role, side, _k, pts in layout}
     kinds = {role: kind for role, _n, kind in presets.MUSCLES}

@@ -326,7 +326,7 @@ def test_layers_stay_off_the_eyelids_and_the_lips():
     from sample_scenes import patterns as sample
     from sample_scenes.lib import headgen, rigging, scene_setup
     from wrinkle_addon.core import zones
-    from wrinkle_addon.glue.muscles import landmarks
+    from wrinkle_addon.glue import landmarks
 
     data = headgen.make_head(12000)
     face = scene_setup.mesh_object_from_arrays("Head", data["positions"], data["quads"], data["corner_uvs"])

@@ -7,10 +7,10 @@ import bpy
 import numpy as np
 
 from tests.blender import scenes
-from wrinkle_addon.core.muscles import refinement
-from wrinkle_addon.glue import meshio
-from wrinkle_addon.glue.muscles import landmarks, refine
+from wrinkle_addon.core.muscles import resolution
+from wrinkle_addon.glue import landmarks, meshio, refine
 from wrinkle_addon.glue.muscles import objects as muscle_objects
+from wrinkle_addon.glue.muscles.resolution import refine_need
 
 DATA = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 
@@ -18,26 +18,27 @@ DATA = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_hea
 def _rule_edges(face, factor=4.0):
     me = face.data
     core = [muscle_objects.to_core(m, face) for m in muscle_objects.live_muscles(face)]
-    return refinement.refine_edges(meshio.read_vectors(me, "position"), meshio.read_edges(me), core, factor)
+    return resolution.refine_edges(meshio.read_vectors(me, "position"), meshio.read_edges(me), core, factor)
 
 
 def test_refine_meets_the_rule_and_warns_only_while_unmet():
     face, muscle = scenes.wrinkled_face(n_wrinkles=8)
     n = len(face.data.vertices)
     assert len(_rule_edges(face))
-    result = refine.refine(face, [muscle], 4.0)
+    result = refine.refine(face, refine_need(face, 4.0, [muscle]))
     assert result.message == "" and result.passes > 0
     assert len(_rule_edges(face)) == 0
     grown = len(face.data.vertices)
     assert grown > n
-    again = refine.refine(face, [muscle], 4.0)  # the rule is met: nothing to do, no warning
+    again = refine.refine(face, refine_need(face, 4.0, [muscle]))  # the rule is met: nothing to do
     assert (again.passes, again.message) == (0, "") and len(face.data.vertices) == grown
     bpy.context.view_layer.objects.active = face
     assert bpy.ops.wrinkle.refine(edges_per_half_cycle=4) == {"FINISHED"}
     assert len(face.data.vertices) == grown
     # a vertex budget that the rule cannot fit in: the message says so
     face2, muscle2 = scenes.wrinkled_face(n_wrinkles=8)
-    small = refine.refine(face2, [muscle2], 4.0, max_vertices=len(face2.data.vertices) + 10)
+    small = refine.refine(face2, refine_need(face2, 4.0, [muscle2]),
+                          max_vertices=len(face2.data.vertices) + 10)
     assert "exceed" in small.message
 
 
@@ -46,7 +47,7 @@ def test_refine_adds_only_what_breaks_the_rule_and_keeps_a_plane_planar():
     me = face.data
     n = len(me.vertices)
     before = _rule_edges(face)
-    result = refine.refine(face, [muscle], 4.0)
+    result = refine.refine(face, refine_need(face, 4.0, [muscle]))
     assert result.message == ""
     pos = meshio.read_vectors(me, "position")
     # the flat patch stays exactly flat: every new point on the plane y = 0
@@ -78,7 +79,7 @@ def test_new_points_follow_a_curved_surface_and_its_shape_key():
     keys["BrowsUp"].points.foreach_set("co", bend(brows.reshape(-1, 3)).ravel())
     me.update()
     muscle.ewrinkles_muscle.length = muscle.ewrinkles_muscle.length  # same muscle, curved skin
-    result = refine.refine(face, [muscle], 4.0)
+    result = refine.refine(face, refine_need(face, 4.0, [muscle]))
     assert result.message == "" and len(me.vertices) > n
     pos = meshio.read_vectors(me, "position").astype(np.float64)
     dist = np.hypot(pos[:, 0], pos[:, 1] - radius)
@@ -122,10 +123,10 @@ def test_decimated_ict_head_grows_no_larger_than_the_full_head():
         face = ict.ict_object(data, name="ICTHead") if name == "full" else _decimated(data)
         rigging.wrinkle_face(face, data["landmarks"], wrinkles_only=True, refine=False)
         muscles = muscle_objects.live_muscles(face)
-        result = refine.refine(face, muscles, 4.0)
+        result = refine.refine(face, refine_need(face, 4.0, muscles))
         counts[name] = (len(face.data.vertices), result.message)
         assert result.message == "", counts  # the rule is met: no warning
-        assert len(refinement.refine_edges(
+        assert len(resolution.refine_edges(
             meshio.read_vectors(face.data, "position"), meshio.read_edges(face.data),
             [muscle_objects.to_core(m, face) for m in muscles], 4.0,
             landmarks.keep_out(face, meshio.read_vectors(face.data, "position")))) == 0

@@ -5,6 +5,7 @@ import pytest
 
 from tests.core.meshes import uv_grid
 from wrinkle_addon.core.bando import curves
+from wrinkle_addon.core.bezier import bezier
 
 _trapz = np.trapezoid if hasattr(np, "trapezoid") else np.trapz
 SCALE = 0.2  # metres per UV unit on the flat test grids
@@ -109,7 +110,7 @@ def test_straight_bezier_is_collinear_and_ends_exact():
     dirn = (c - a) / np.linalg.norm(c - a)
     hl = pts - 0.1 * dirn
     hr = pts + 0.13 * dirn
-    s = curves.bezier(pts, hl, hr, 16)
+    s = bezier(pts, hl, hr, 16)
     assert s.shape == (33, 2)
     rel = s - a
     cross = rel[:, 0] * dirn[1] - rel[:, 1] * dirn[0]
@@ -124,13 +125,13 @@ def test_bezier_matches_de_casteljau(dim):
     rng = np.random.default_rng(7)
     pts, hl, hr = rng.normal(size=(3, 4, dim))
     n = 997
-    s = curves.bezier(pts, hl, hr, n)
+    s = bezier(pts, hl, hr, n)
     assert s.shape == (3 * n + 1, dim)
     for _ in range(20):
         i, j = rng.integers(0, 3), rng.integers(0, n)
         want = _de_casteljau([pts[i], hr[i], hl[i + 1], pts[i + 1]], j / n)
         np.testing.assert_allclose(s[i * n + j], want, atol=1e-12)
-    cyc = curves.bezier(pts, hl, hr, 8, cyclic=True)
+    cyc = bezier(pts, hl, hr, 8, cyclic=True)
     assert cyc.shape == (4 * 8 + 1, dim)
     np.testing.assert_allclose(cyc[-1], pts[0])
     np.testing.assert_allclose(cyc[3 * 8 + 4], _de_casteljau([pts[3], hr[3], hl[0], pts[0]], 0.5))
@@ -139,10 +140,10 @@ def test_bezier_matches_de_casteljau(dim):
 def test_bezier_refuses_bad_input():
     p = np.zeros((1, 2))
     with pytest.raises(ValueError, match="at least 2"):
-        curves.bezier(p, p, p, 4)
+        bezier(p, p, p, 4)
     p = np.array([[0.0, 0.0], [1.0, np.nan]])
     with pytest.raises(ValueError, match="finite"):
-        curves.bezier(p, p, p, 4)
+        bezier(p, p, p, 4)
 
 
 def test_resample_by_arc_length():
@@ -252,7 +253,7 @@ def test_circular_arc_distance_is_radius_difference():
     ang = np.array([0.0, 0.5 * np.pi, np.pi])  # a half circle: two quarter-circle segments
     pts = c0 + R * np.stack([np.cos(ang), np.sin(ang)], 1)
     tang = np.stack([-np.sin(ang), np.cos(ang)], 1) * k * R
-    poly = curves.bezier(pts, pts - tang, pts + tang, 64)
+    poly = bezier(pts, pts - tang, pts + tang, 64)
     plan = curves.curve_plan(uv, tris, pos, [{"polyline_uv": poly, "d": D, "w": W, "taper": 0.01}])
     rel = uv[plan.verts] - c0
     r = np.linalg.norm(rel, axis=1)
@@ -302,7 +303,7 @@ def test_wiggly_curve_matches_brute_force_nearest_point():
     rng = np.random.default_rng(3)
     pts = np.stack([np.linspace(0.2, 0.8, 5), 0.5 + 0.15 * rng.uniform(-1, 1, 5)], 1)
     hl, hr = pts + 0.1 * rng.normal(size=(2, 5, 2))
-    poly = curves.bezier(pts, hl, hr, 40)
+    poly = bezier(pts, hl, hr, 40)
     w = 0.003
     plan = curves.curve_plan(uv, tris, pos, [(poly, D, w, 0.0)])
     scale = np.array([SCALE, 1.5 * SCALE])

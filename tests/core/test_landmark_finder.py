@@ -1,4 +1,4 @@
-"""The landmark finder (core.muscles.landmark_finder): each rule on its own and in order,
+"""The landmark finder (core.landmark_finder): each rule on its own and in order,
 against references placed independently of it, and the bounding-box fallback.
 
 References:
@@ -22,8 +22,7 @@ import numpy as np
 import pytest
 
 from sample_scenes.lib import headgen
-from wrinkle_addon.core.muscles import landmark_finder as lf
-from wrinkle_addon.core.muscles import presets
+from wrinkle_addon.core import landmark_finder as lf
 
 ICT = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 ICT_REFERENCE = {  # name -> ICT vertex indices (mean of them)
@@ -37,7 +36,7 @@ ICT_REFERENCE = {  # name -> ICT vertex indices (mean of them)
     "cheekbone_L": [3374],
 }
 TOLERANCE = 0.005  # metres
-NAMES = [k for k, _l, _d in presets.LANDMARKS]
+NAMES = [k for k, _l, _d in lf.LANDMARKS]
 
 
 def _to_blender(a):
@@ -235,7 +234,7 @@ def test_sphere_falls_back_to_the_bounding_box_with_a_message():
     pos, quads = _sphere()
     found, method, message = lf.find_landmarks(pos, quads, {"eyeBlink_L": pos})
     assert method == lf.FALLBACK and "bounding box" in message
-    expected = presets.estimate_landmarks(pos.min(axis=0), pos.max(axis=0))
+    expected = lf.estimate_landmarks(pos.min(axis=0), pos.max(axis=0))
     for k in NAMES:
         np.testing.assert_allclose(found[k], expected[k])
 

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from benchmarks import landmarks as bench
-from wrinkle_addon.core.muscles import landmark_finder as lf
+from wrinkle_addon.core import landmark_finder as lf
 
 NPZ, JSON = bench.DEFAULT_NPZ, bench.DEFAULT_REFERENCE
 GOAL_MM = bench.GOAL_MM
@@ -45,7 +45,7 @@ def test_the_reference_covers_the_comparable_landmarks(ict):
     pos, quads, _keys, ibug = ict
     ref = bench.reference_points(pos, quads, ibug)
     assert tuple(ref) == COMPARED
-    assert set(COMPARED) | set(bench.NO_COUNTERPART) == {k for k, _l, _d in lf.presets.LANDMARKS}
+    assert set(COMPARED) | set(bench.NO_COUNTERPART) == {k for k, _l, _d in lf.LANDMARKS}
     # the chin's front lies between the lower lip and the menton, ahead of the menton; the
     # glabella between the nose bridge's top and the inner brow ends, ahead of the bridge's top
     r = pos[ibug]

@@ -18,6 +18,14 @@ ALLOWED = {
 }
 # core sub-packages, one per method: independent of each other
 METHODS = {"muscles", "maps", "bando", "patterns"}
+# glue sub-packages (the methods' and the exports'): the only imports between them, and why
+# (docs/architecture.md, "Allowed imports"); what several use is a module of glue itself
+GLUE_PACKAGES = METHODS | {"export"}
+GLUE_CROSSINGS = {
+    ("bando", "muscles"): "the fine wrinkles' direction field follows the muscles' pull",
+    ("maps", "muscles"): "Bake Wrinkle Map bakes the muscles' wrinkles zone by zone",
+    ("export", "maps"): "the exports carry the wrinkle maps' material and its table",
+}
 
 
 def _imports(path):
@@ -79,6 +87,21 @@ def test_core_methods_do_not_import_each_other():
             if parts[:2] == ["wrinkle_addon", "core"] and len(parts) > 2 and parts[2] in others:
                 bad.append(f"{rel}:{line} imports {module}")
     assert not bad, "\n".join(bad)
+
+
+def test_glue_packages_import_each_other_only_where_declared():
+    found = set()
+    for path in _modules():
+        rel = path.relative_to(PACKAGE)
+        if rel.parts[0] != "glue" or len(rel.parts) < 3:
+            continue
+        for module, line in _imports(path):
+            parts = module.split(".")
+            if parts[:2] == ["wrinkle_addon", "glue"] and len(parts) > 2 and parts[2] in GLUE_PACKAGES \
+                    and parts[2] != rel.parts[1]:
+                found.add((rel.parts[1], parts[2]))
+                assert (rel.parts[1], parts[2]) in GLUE_CROSSINGS, f"{rel}:{line} imports {module}"
+    assert found == set(GLUE_CROSSINGS), "a declared crossing that no import makes any more"
 
 
 def test_every_folder_states_its_rule():

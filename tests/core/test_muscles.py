@@ -231,17 +231,17 @@ def test_fuzz_random_meshes_and_parameters():
 
 
 def test_refine_edges_selects_long_edges_in_region_only():
-    from wrinkle_addon.core.muscles import refinement
+    from wrinkle_addon.core.muscles import resolution
 
     rest, edges, tris, _ = grid(30, 20)
     m = sheet(n_wrinkles=6)
-    split = refinement.refine_edges(rest, edges, [m], factor=4)
+    split = resolution.refine_edges(rest, edges, [m], factor=4)
     assert len(split)
     f = muscle_field(rest, m)
     region = set(f.region.tolist())
     assert all(edges[i, 0] in region or edges[i, 1] in region for i in split)
     fine_rest, fine_edges, *_ = grid(400, 260)
-    assert len(refinement.refine_edges(fine_rest, fine_edges, [m], factor=4)) == 0
+    assert len(resolution.refine_edges(fine_rest, fine_edges, [m], factor=4)) == 0
 
 
 def test_formed_heights_are_the_wrinkle_at_full_amplitude():

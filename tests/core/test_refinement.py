@@ -1,9 +1,11 @@
-"""core.muscles.refinement: the edge choice and the smooth placement of new points."""
+"""core.refinement and the muscles' rule (core.muscles.resolution): the edge choice and
+the smooth placement of new points."""
 
 import numpy as np
 
 from tests.core.meshes import grid
-from wrinkle_addon.core.muscles import refinement
+from wrinkle_addon.core import refinement
+from wrinkle_addon.core.muscles import resolution
 from wrinkle_addon.core.muscles.muscle import SHEET, Muscle
 
 
@@ -123,15 +125,15 @@ def test_smooth_offsets_of_a_split_cylinder_grid_follow_the_cylinder():
 def test_refine_edges_needs_amplitude_and_takes_only_what_breaks_the_rule():
     rest, edges, tris, quads = grid(30, 20)
     m = sheet()
-    need = refinement.refine_edges(rest, edges, [m], factor=4)
+    need = resolution.refine_edges(rest, edges, [m], factor=4)
     assert len(need)
-    limit = refinement.edge_limits(rest, edges, [m], factor=4)
+    limit = resolution.edge_limits(rest, edges, [m], factor=4)
     length = np.linalg.norm(rest[edges[:, 1]] - rest[edges[:, 0]], axis=1)
     assert np.array_equal(need, np.flatnonzero(length > limit))
     # no wrinkles (n_w = 0): the muscle still pulls, but no edge needs refining
-    assert len(refinement.refine_edges(rest, edges, [sheet(n_wrinkles=0)], factor=4)) == 0
+    assert len(resolution.refine_edges(rest, edges, [sheet(n_wrinkles=0)], factor=4)) == 0
     # a coarser factor asks for less
-    assert len(refinement.refine_edges(rest, edges, [m], factor=1)) < len(need)
+    assert len(resolution.refine_edges(rest, edges, [m], factor=1)) < len(need)
 
 
 def test_split_edges_on_quads_takes_exactly_the_needed_edges_and_counts_grids():

@@ -10,8 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wrinkle_addon.core import skin, zones
-from wrinkle_addon.core.muscles import landmark_finder
+from wrinkle_addon.core import landmark_finder, skin, zones
 
 NPZ = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 

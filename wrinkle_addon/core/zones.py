@@ -8,7 +8,7 @@ muscles their pull) by :func:`keep_out`, which is 0 inside those zones and rises
 with a C¹ smoothstep over a margin around them.
 
 The zones are ellipses in the face's front plane (x, z), sized from the landmarks so that
-they fit any head (landmark names as ``core.muscles.presets.LANDMARKS``; face-local
+they fit any head (landmark names as ``core.landmark_finder.LANDMARKS``; face-local
 coordinates, the face looking toward -Y, Z up, the character's left +X; the right side is
 the left mirrored about the glabella's x):
 

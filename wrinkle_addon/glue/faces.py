@@ -1,9 +1,14 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The one face check, and the face an operator or panel acts on.
+"""The one face check, the face an operator or panel acts on, and the collections the
+add-on's helper objects go into.
 
 Every caller says what it needs (:func:`problem`'s keywords); the messages are the same
 everywhere, so the panel, the operators and the frame handler agree about a face.
 """
+
+import bpy
+
+RIG_COLLECTION = "Wrinkle Muscles"  # the face rig's helpers: the muscles and the landmark empties
 
 
 def active(context):
@@ -67,3 +72,16 @@ def collections_for(ob, scene):
     into a collection that is linked from a library or is a library override."""
     own = [c for c in ob.users_collection if c.library is None and c.override_library is None]
     return own or [scene.collection]
+
+
+def helper_collection(scene, name):
+    """The file's own collection ``name`` (made if there is none), linked into ``scene`` if
+    the scene does not use it yet: the collection that helper objects (muscles, landmarks,
+    wrinkle curves, pattern frames) are linked into.  A collection of that name linked from a
+    library is left alone, since objects cannot be linked into it."""
+    coll = bpy.data.collections.get((name, None))
+    if coll is None:
+        coll = bpy.data.collections.new(name)
+    if scene.user_of_id(coll) == 0:
+        scene.collection.children.link(coll)
+    return coll

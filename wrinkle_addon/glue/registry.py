@@ -117,10 +117,10 @@ class WrinkleSource:
 
     # --- Refine Wrinkling Regions -----------------------------------------------------------
     def refine_need(self, face, factor, scene):
-        """What this source asks of Refine Wrinkling Regions besides the muscles' half cycles:
-        a callable ``(rest (N, 3), edges (E, 2)) -> indices`` of the edges to split, or None
-        when it asks for nothing.  ``factor``: the operator's edges per half cycle.  The
-        operator splits the union of every source's edges."""
+        """What this source asks of Refine Wrinkling Regions (``glue.refine``): a callable
+        ``(rest (N, 3), edges (E, 2)) -> indices`` of the edges to split, asked again after
+        every pass, or None when it asks for nothing.  ``factor``: the operator's edges per
+        half cycle.  The operator splits the union of every source's edges."""
         return None
 
     # --- farm bake ---------------------------------------------------------------------

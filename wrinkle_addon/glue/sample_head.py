@@ -24,9 +24,8 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from ..core import landmark_finder, skin_age
 from ..core import skin as core_skin
-from ..core import skin_age
-from ..core.muscles import landmark_finder
 from . import meshio, skin_materials
 from .errors import WrinkleError
 

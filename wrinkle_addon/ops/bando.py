@@ -12,7 +12,7 @@ import numpy as np
 from bpy.props import FloatProperty, FloatVectorProperty
 
 from ..core.bando import curves as core_curves
-from ..glue import faces, pipeline
+from ..glue import curve_objects, faces, pipeline
 from ..glue import surface as face_surface
 from ..glue.bando import curves, shading
 from ..glue.bando import fine as fine_glue
@@ -223,7 +223,7 @@ class WRINKLE_OT_snap_curve(bpy.types.Operator):
             if spline.type != "BEZIER":
                 raise WrinkleError(f'"{ob.name}" has a {spline.type.lower()} spline: wrinkle curves '
                                    "snap Bézier splines (Curve > Set Spline Type > Bézier)")
-            data = {k: curves.spline_points(spline, k) for k in ("co", "handle_left", "handle_right")}
+            data = {k: curve_objects.spline_points(spline, k) for k in ("co", "handle_left", "handle_right")}
             local = data["co"] @ m[:3, :3].T + m[:3, 3]
             delta = _snap(snapper, local) - local
             for k, v in data.items():

@@ -1,10 +1,15 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Operators on the face as a whole: switch wrinkles on and off, bake for a farm."""
+"""Operators on the face as a whole: switch wrinkles on and off, bake for a farm, place the
+landmarks every method builds on, refine the wrinkling regions of every source."""
+
+import functools
 
 import bpy
-from bpy.props import BoolProperty, IntProperty, StringProperty
+import numpy as np
+from bpy.props import BoolProperty, FloatProperty, IntProperty, StringProperty
 
-from ..glue import faces, farm_bake, pipeline, registry
+from ..core import landmark_finder
+from ..glue import faces, farm_bake, landmarks, pipeline, refine, registry
 from ..glue.errors import WrinkleError
 from ..glue.muscles import objects as muscle_objects
 from ..glue.progress import Progress
@@ -169,5 +174,82 @@ class WRINKLE_OT_free_bake(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (WRINKLE_OT_enable, WRINKLE_OT_disable, WRINKLE_OT_bake, WRINKLE_OT_free_bake)
+class WRINKLE_OT_add_landmarks(bpy.types.Operator):
+    """Find the landmarks the facial muscle set is built from (from the eye and mouth
+    openings, the ARKit shape keys or the face's shape) and place them. Check them, move any
+    that is off onto its feature, then run Add Facial Muscle Set"""
+
+    bl_idname = "wrinkle.add_landmarks"
+    bl_label = "Place Landmarks"
+    bl_options = {"REGISTER", "UNDO"}
+
+    poll = face_poll()
+
+    @guarded
+    def execute(self, context):
+        method, message = landmarks.place_landmarks(context, _face(context))
+        if message:
+            self.report({"WARNING"}, message)
+            return {"FINISHED"}
+        self.report({"INFO"}, f"Landmarks found from {landmark_finder.LABELS[method]}: check them "
+                              "(WL ...), then Add Facial Muscle Set")
+        return {"FINISHED"}
+
+
+def _union(needs):
+    """One refinement rule from several (the sources' ``refine_need``)."""
+    return lambda rest, edges: functools.reduce(np.union1d, [need(rest, edges) for need in needs],
+                                                np.zeros(0, np.int64))
+
+
+class WRINKLE_OT_refine(bpy.types.Operator):
+    """Split the edges where the wrinkles need it until every half wrinkle cycle of the
+    muscles and of the pattern layers spans at least the given number of edges, and the edges
+    around the wrinkle curves are short enough for their sharp furrows; new points follow the
+    smooth surface (keeps UVs, shape keys, vertex groups and materials)"""
+
+    bl_idname = "wrinkle.refine"
+    bl_label = "Refine Wrinkling Regions"
+    bl_options = {"REGISTER", "UNDO"}
+
+    edges_per_half_cycle: FloatProperty(
+        name="Edges per Half Cycle",
+        description="Minimum number of edge lengths across half a wrinkle (Zhang's u)",
+        default=4.0, min=1.0, soft_max=8.0,
+    )
+    max_vertices: IntProperty(
+        name="Vertex Limit",
+        description="Stop before the mesh would grow beyond this many vertices",
+        default=1_000_000, min=1000,
+    )
+
+    poll = face_poll(object_mode=True)
+
+    @guarded
+    def execute(self, context):
+        face = _face(context)
+        factor = self.edges_per_half_cycle
+        needs = [need for need in (s.refine_need(face, factor, context.scene) for s in registry.sources())
+                 if need is not None]
+        if not needs:
+            raise WrinkleError("This face has no muscles, wrinkle curves or pattern layers, so there is no "
+                               "wrinkling region to refine")
+        before = len(face.data.vertices)
+        with Progress(context, "Refine Wrinkling Regions", total=refine.MAX_PASSES) as progress:
+            result = refine.refine(face, _union(needs), self.max_vertices,
+                                   progress=lambda i: progress(i, f"pass {i + 1}"))
+        after = len(face.data.vertices)
+        if result.message:  # set only when the rule is still broken
+            self.report({"WARNING"}, result.message)
+        elif result.passes == 0:
+            self.report({"INFO"}, f"Nothing to refine: every half cycle already spans "
+                                  f"{self.edges_per_half_cycle:g} edges")
+        else:
+            self.report({"INFO"}, f"Refined {before} -> {after} vertices in {result.passes} passes")
+        pipeline.refresh_all(context)
+        return {"FINISHED"}
+
+
+classes = (WRINKLE_OT_enable, WRINKLE_OT_disable, WRINKLE_OT_bake, WRINKLE_OT_free_bake,
+           WRINKLE_OT_add_landmarks, WRINKLE_OT_refine)
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -5,7 +5,6 @@ Every operator that changes data is undoable; bad input is reported with a
 clear message and the operator is cancelled, never a traceback.
 """
 
-import functools
 import math
 
 import bpy
@@ -21,12 +20,11 @@ from bpy.props import (
 from bpy_extras import view3d_utils
 from mathutils import Vector
 
-from ..core.muscles import landmark_finder, presets
-from ..glue import drivers, faces, pipeline, registry
+from ..core.muscles import presets
+from ..glue import drivers, faces, landmarks, pipeline
 from ..glue.errors import WrinkleError
-from ..glue.muscles import landmarks, refine
+from ..glue.muscles import muscle_set
 from ..glue.muscles import objects as muscle_objects
-from ..glue.progress import Progress
 from .common import face_poll, guarded, select_only
 
 MUSCLE_KINDS = [
@@ -157,28 +155,6 @@ class WRINKLE_OT_add_muscle(bpy.types.Operator):
         return tuple(face.matrix_world @ loc) if ok else None
 
 
-class WRINKLE_OT_add_landmarks(bpy.types.Operator):
-    """Find the landmarks the facial muscle set is built from (from the eye and mouth
-    openings, the ARKit shape keys or the face's shape) and place them. Check them, move any
-    that is off onto its feature, then run Add Facial Muscle Set"""
-
-    bl_idname = "wrinkle.add_landmarks"
-    bl_label = "Place Landmarks"
-    bl_options = {"REGISTER", "UNDO"}
-
-    poll = face_poll()
-
-    @guarded
-    def execute(self, context):
-        method, message = landmarks.place_landmarks(context, _face(context))
-        if message:
-            self.report({"WARNING"}, message)
-            return {"FINISHED"}
-        self.report({"INFO"}, f"Landmarks found from {landmark_finder.LABELS[method]}: check them "
-                              "(WL ...), then Add Facial Muscle Set")
-        return {"FINISHED"}
-
-
 class WRINKLE_OT_add_muscle_set(bpy.types.Operator):
     """Add the facial muscle set: Zhang's ten muscles as mirrored pairs (Frontalis inner,
     major and outer, Corrugator, Nasalis, Zygomaticus minor and major, Risorius, Depressor
@@ -203,7 +179,7 @@ class WRINKLE_OT_add_muscle_set(bpy.types.Operator):
         if any(role != "CUSTOM" for role, _s in existing):
             self.report({"ERROR"}, "This face already has a facial muscle set; delete it first")
             return {"CANCELLED"}
-        made = landmarks.build_muscle_set(context, face, marks)
+        made = muscle_set.build_muscle_set(context, face, marks)
         pipeline.refresh_all(context)
         note = " from guessed landmarks: check them with Place Landmarks" if guessed else ""
         self.report({"INFO"}, f"Added {len(made)} muscles{note}")
@@ -322,70 +298,11 @@ class WRINKLE_OT_drive_contraction(bpy.types.Operator):
         return {"FINISHED"}
 
 
-def _union(needs):
-    """One refinement rule from several (the sources' ``refine_need``), or None."""
-    if not needs:
-        return None
-    return lambda rest, edges: functools.reduce(np.union1d, [need(rest, edges) for need in needs],
-                                                np.zeros(0, np.int64))
-
-
-class WRINKLE_OT_refine(bpy.types.Operator):
-    """Split the edges where the wrinkles need it until every half wrinkle cycle of the
-    muscles and of the pattern layers spans at least the given number of edges, and the edges
-    around the wrinkle curves are short enough for their sharp furrows; new points follow the
-    smooth surface (keeps UVs, shape keys, vertex groups and materials)"""
-
-    bl_idname = "wrinkle.refine"
-    bl_label = "Refine Wrinkling Regions"
-    bl_options = {"REGISTER", "UNDO"}
-
-    edges_per_half_cycle: FloatProperty(
-        name="Edges per Half Cycle",
-        description="Minimum number of edge lengths across half a wrinkle (Zhang's u)",
-        default=4.0, min=1.0, soft_max=8.0,
-    )
-    max_vertices: IntProperty(
-        name="Vertex Limit",
-        description="Stop before the mesh would grow beyond this many vertices",
-        default=1_000_000, min=1000,
-    )
-
-    poll = face_poll(object_mode=True)
-
-    @guarded
-    def execute(self, context):
-        face = _face(context)
-        muscles = muscle_objects.live_muscles(face)
-        factor = self.edges_per_half_cycle
-        extras = [need for need in (s.refine_need(face, factor, context.scene) for s in registry.sources())
-                  if need is not None]
-        if not muscles and not extras:
-            raise WrinkleError("This face has no muscles, wrinkle curves or pattern layers, so there is no "
-                               "wrinkling region to refine")
-        before = len(face.data.vertices)
-        with Progress(context, "Refine Wrinkling Regions", total=refine.MAX_PASSES) as progress:
-            result = refine.refine(face, muscles, self.edges_per_half_cycle, self.max_vertices,
-                                   progress=lambda i: progress(i, f"pass {i + 1}"), extra=_union(extras))
-        after = len(face.data.vertices)
-        if result.message:  # set only when the rule is still broken
-            self.report({"WARNING"}, result.message)
-        elif result.passes == 0:
-            self.report({"INFO"}, f"Nothing to refine: every half cycle already spans "
-                                  f"{self.edges_per_half_cycle:g} edges")
-        else:
-            self.report({"INFO"}, f"Refined {before} -> {after} vertices in {result.passes} passes")
-        pipeline.refresh_all(context)
-        return {"FINISHED"}
-
-
 classes = (
     WRINKLE_OT_add_muscle,
-    WRINKLE_OT_add_landmarks,
     WRINKLE_OT_add_muscle_set,
     WRINKLE_OT_expression,
     WRINKLE_OT_remove_muscle,
     WRINKLE_OT_drive_contraction,
-    WRINKLE_OT_refine,
 )
 register, unregister = bpy.utils.register_classes_factory(classes)

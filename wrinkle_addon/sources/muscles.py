@@ -5,7 +5,8 @@ wrinkle source: the muscles' pull and eq. 4's wrinkle height, from ``core.muscle
 import numpy as np
 
 from ..core.muscles import system
-from ..glue.muscles import landmarks, objects
+from ..glue import landmarks
+from ..glue.muscles import objects, resolution
 from ..glue.registry import WrinkleSource
 from ..ui import muscles as muscles_ui
 
@@ -110,6 +111,9 @@ class MuscleSource(WrinkleSource):
 
     def contribute(self, face, static, skin, inputs):
         return system.part(static.plan, skin, inputs.values, face.ewrinkles_face.strength)
+
+    def refine_need(self, face, factor, scene):
+        return resolution.refine_need(face, factor)
 
     def problems(self, face, static):
         found = [f'"{static.names[i]}": {msg}' for i, msg in static.plan.problems]

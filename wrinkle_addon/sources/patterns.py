@@ -8,8 +8,7 @@ import numpy as np
 
 from ..core import combine
 from ..core.patterns import functions as patterns
-from ..glue import drivers, meshio, pipeline
-from ..glue.muscles import landmarks
+from ..glue import drivers, landmarks, meshio, pipeline
 from ..glue.patterns import layers as glue
 from ..glue.patterns import shedding
 from ..glue.registry import WrinkleSource

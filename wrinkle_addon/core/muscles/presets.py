@@ -8,24 +8,11 @@ fixes each muscle's end points in the (x, z) plane of the face; the caller
 projects them onto the skin (a ray cast from the front) so the muscles sit on
 the surface of any head.
 
-Landmarks, all of the character's left side except the midline ones:
-``hairline_center, glabella, brow_outer_L, eye_L, nose_tip, mouth_corner_L,
-chin, cheekbone_L``.  The right side is mirrored about the plane through the
-glabella.
+The landmarks are ``core.landmark_finder.LANDMARKS``, all of the character's left side
+except the midline ones; the right side is mirrored about the plane through the glabella.
 """
 
 import numpy as np
-
-LANDMARKS = (
-    ("hairline_center", "Hairline", "Middle of the hairline, where the forehead ends"),
-    ("glabella", "Glabella", "Between the eyebrows, on the midline"),
-    ("brow_outer_L", "Brow Outer (left)", "Outer end of the character's left eyebrow"),
-    ("eye_L", "Eye (left)", "Centre of the character's left eye"),
-    ("nose_tip", "Nose Tip", "Tip of the nose"),
-    ("mouth_corner_L", "Mouth Corner (left)", "Corner of the mouth on the character's left"),
-    ("chin", "Chin", "Front of the chin, on the midline"),
-    ("cheekbone_L", "Cheekbone (left)", "Most prominent point of the left cheekbone"),
-)
 
 # (role, display name, type)
 MUSCLES = (
@@ -96,27 +83,6 @@ ROLE_PARAMS = {
     # one soft line across the root of the nose between two bulges (three read as a bellows)
     "PROCERUS": {"lambda_w": 0.5, "n_wrinkles": 2, "reach": 1.3, "depth_factor": 0.25},
 }
-
-
-def estimate_landmarks(bbox_min, bbox_max):
-    """Rough landmark guesses from the bounding box of a head (the artist confirms them)."""
-    lo, hi = np.asarray(bbox_min, float), np.asarray(bbox_max, float)
-    cx, w = 0.5 * (lo[0] + hi[0]), hi[0] - lo[0]
-    z0, h = lo[2], hi[2] - lo[2]
-
-    def p(dx, fz):
-        return np.array([cx + dx * w, lo[1], z0 + fz * h])
-
-    return {
-        "hairline_center": p(0.0, 0.86),
-        "glabella": p(0.0, 0.66),
-        "brow_outer_L": p(0.30, 0.67),
-        "eye_L": p(0.20, 0.61),
-        "nose_tip": p(0.0, 0.47),
-        "mouth_corner_L": p(0.15, 0.33),
-        "chin": p(0.0, 0.20),
-        "cheekbone_L": p(0.27, 0.50),
-    }
 
 
 # The Corrugator's frown line, out from the midline in eyes' distances E: at the inner end

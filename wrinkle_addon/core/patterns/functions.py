@@ -263,7 +263,7 @@ def eye_distance(marks):
 
 def places(marks):
     """Where each type's frame goes on the character's left, from the face's landmarks
-    (``marks``: name -> face-space point; those of ``core.muscles.presets.LANDMARKS``, the
+    (``marks``: name -> face-space point; those of ``core.landmark_finder.LANDMARKS``, the
     face looking toward -Y, Z up, its left +X), and the frame's up: ``{kind: (point, up)}``.
     The eye corner at the outer canthus (a fifth of E beyond the eye's centre, where the
     eyelid zone of ``core.zones`` ends); the frown between the brows at the glabella; the

@@ -2,9 +2,9 @@
 """Wrinkle-curve objects (Bando, Kuratate & Nishita 2002, §6): Bézier curves drawn on a face
 that mark the furrows of large-scale wrinkles.
 
-The glue reads each curve's splines in bulk, samples them in the face's space with
-``core.bando.curves.bezier``, snaps the samples to the face's rest surface and turns them
-into UV polylines: the paper draws its curves in texture space, we let the artist draw
+The glue reads each curve's splines in bulk and samples them in the face's space
+(``glue.curve_objects``), snaps the samples to the face's rest surface and turns them into
+UV polylines: the paper draws its curves in texture space, we let the artist draw
 them on the skin and project them (§6: "the curve is projected into the UV space").
 """
 
@@ -12,10 +12,10 @@ import bpy
 import numpy as np
 
 from ...core.bando import curves as core_curves
+from .. import curve_objects, faces
 from ..errors import WrinkleError
 
 COLLECTION_NAME = "Wrinkle Curves"
-SAMPLES_PER_SEGMENT = 24
 
 
 class CurveError(WrinkleError):
@@ -36,29 +36,6 @@ def live_curves(face, in_scene=None):
     return out
 
 
-def spline_points(spline, name):
-    """A Bézier spline's ``co``, ``handle_left`` or ``handle_right`` (k, 3) float64."""
-    pts = spline.bezier_points
-    arr = np.empty(len(pts) * 3, np.float64)
-    pts.foreach_get(name, arr)
-    return arr.reshape(-1, 3)
-
-
-def spline_data(curve_ob):
-    """Per spline: ``(kind, points, handles_left, handles_right, cyclic)`` in the curve's
-    own space (handles None for poly splines)."""
-    out = []
-    for spline in curve_ob.data.splines:
-        if spline.type == "BEZIER":
-            out.append(("BEZIER", spline_points(spline, "co"), spline_points(spline, "handle_left"),
-                        spline_points(spline, "handle_right"), spline.use_cyclic_u))
-        else:  # poly and NURBS: their control points as a polyline
-            arr = np.empty(len(spline.points) * 4, np.float64)
-            spline.points.foreach_get("co", arr)
-            out.append(("POLY", arr.reshape(-1, 4)[:, :3], None, None, spline.use_cyclic_u))
-    return out
-
-
 def parameters(curve_ob):
     s = curve_ob.ewrinkles_curve
     return (curve_ob.name, s.depth, s.width, s.rest_height, s.taper, s.enabled)
@@ -68,26 +45,8 @@ def signature(curve_ob):
     """Everything static about a curve: its matrix, its splines and its parameters."""
     splines = tuple((k, p.tobytes(), None if hl is None else hl.tobytes(),
                      None if hr is None else hr.tobytes(), c)
-                    for k, p, hl, hr, c in spline_data(curve_ob))
+                    for k, p, hl, hr, c in curve_objects.spline_data(curve_ob))
     return (tuple(map(tuple, curve_ob.matrix_world)), splines) + parameters(curve_ob)
-
-
-def face_space_samples(curve_ob, face):
-    """Each spline of ``curve_ob`` sampled densely, in ``face``'s local space: a list of
-    (k, 3) arrays."""
-    m = np.array(face.matrix_world.inverted_safe() @ curve_ob.matrix_world, np.float64)
-    out = []
-    for kind, p, hl, hr, cyclic in spline_data(curve_ob):
-        if kind == "BEZIER":
-            if cyclic and len(p) > 1:
-                p, hl, hr = np.vstack([p, p[:1]]), np.vstack([hl, hl[:1]]), np.vstack([hr, hr[:1]])
-            pts = core_curves.bezier(p, hl, hr, SAMPLES_PER_SEGMENT) if len(p) > 1 else p
-        else:
-            pts = np.vstack([p, p[:1]]) if cyclic and len(p) > 1 else p
-        out.append(pts @ m[:3, :3].T + m[:3, 3])
-    return out
-
-
 
 
 def uv_polylines(curve_ob, face, snapper, corner_uv, tolerance):
@@ -95,7 +54,7 @@ def uv_polylines(curve_ob, face, snapper, corner_uv, tolerance):
     Raises CurveError when a spline lies farther than ``tolerance`` (face units) from the
     skin, outside the 0-1 UV square, or across a UV seam."""
     out = []
-    for pts in face_space_samples(curve_ob, face):
+    for pts in curve_objects.face_space_samples(curve_ob, face):
         if len(pts) < 2 or not np.isfinite(pts).all():
             raise CurveError(f'The wrinkle curve "{curve_ob.name}" needs at least two points')
         tri, bary, dist, _loc = snapper.nearest(pts)
@@ -127,11 +86,7 @@ def create(context, face, points, name=None):
     points = np.asarray(points, np.float64).reshape(-1, 3)
     if len(points) < 2 or not np.isfinite(points).all():
         raise CurveError("A wrinkle curve needs at least two distinct, finite points")
-    coll = bpy.data.collections.get(COLLECTION_NAME)
-    if coll is None:
-        coll = bpy.data.collections.new(COLLECTION_NAME)
-    if context.scene.user_of_id(coll) == 0:
-        context.scene.collection.children.link(coll)
+    coll = faces.helper_collection(context.scene, COLLECTION_NAME)
     cu = bpy.data.curves.new(name or "Wrinkle Curve", "CURVE")
     cu.dimensions = "3D"
     spline = cu.splines.new("BEZIER")
@@ -170,7 +125,7 @@ def annotation_strokes(scene):
 
 
 def refine_need(face):
-    """The wrinkle curves' refinement rule for ``glue.muscles.refine.refine``: a callable
+    """The wrinkle curves' refinement rule for ``glue.refine.refine``: a callable
     ``(rest, edges) -> indices`` of the edges longer than ``core.bando.curves.edge_limits``
     allows around the face's enabled curves, or None when it has none."""
     live = live_curves(face)
@@ -178,7 +133,7 @@ def refine_need(face):
         return None
     polylines, widths = [], []
     for ob in live:
-        for pts in face_space_samples(ob, face):
+        for pts in curve_objects.face_space_samples(ob, face):
             polylines.append(pts)
             widths.append(ob.ewrinkles_curve.width)
 

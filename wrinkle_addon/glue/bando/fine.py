@@ -16,9 +16,8 @@ import numpy as np
 from ...core import raster, skin_age
 from ...core.bando import field, fine, mapped, parts
 from ...core.muscles import system
-from .. import images, meshio, nodes, pipeline, surface
+from .. import curve_objects, images, landmarks, meshio, nodes, pipeline, surface
 from ..errors import WrinkleError
-from ..muscles import landmarks
 from ..muscles import objects as muscle_objects
 from . import curves, fine_tree, shading
 
@@ -76,7 +75,7 @@ def _strokes_uv(context, face, s, snapper):
     local = [pts @ inv[:3, :3].T + inv[:3, 3] for pts in curves.annotation_strokes(context.scene)]
     for ob in context.selected_objects:
         if ob.type == "CURVE" and not ob.ewrinkles_curve.is_curve:
-            local.extend(curves.face_space_samples(ob, face))
+            local.extend(curve_objects.face_space_samples(ob, face))
     out = []
     for pts in local:
         if len(pts) < 2:

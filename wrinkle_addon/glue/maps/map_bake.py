@@ -20,9 +20,8 @@ from ...core.maps import jimenez as wrinkle_maps
 from ...core.maps import uvmaps
 from ...core.muscles import system
 from ...core.muscles.fields import muscle_field
-from .. import faces, meshio, registry, surface
+from .. import faces, landmarks, meshio, registry, surface
 from ..errors import WrinkleError
-from ..muscles import landmarks as muscle_landmarks
 from ..muscles import objects as muscle_objects
 
 MODES = (
@@ -137,7 +136,7 @@ def _layers(face, mode, muscles=None, surface=None):
     core = [muscle_objects.to_core(m, face) for m in muscles]
     strength = float(face.ewrinkles_face.strength)
     plan = system.build_plan(rest, surface.edges, surface.tris, core,
-                             keep_out=muscle_landmarks.keep_out(face, rest)) if muscles else None
+                             keep_out=landmarks.keep_out(face, rest)) if muscles else None
     extra = np.zeros(len(rest), np.float32) if extra is None else extra
     if mode == "POSE":
         contraction = np.array([m.ewrinkles_muscle.contraction for m in muscles], np.float64)
@@ -310,7 +309,7 @@ def muscle_zones(face, surface=None, muscles=None):
     n = len(rest)
     zones = np.zeros((n, wrinkle_maps.N_ZONES), np.float32)
     raw = np.zeros((n, wrinkle_maps.N_ZONES), np.float32)
-    keep = muscle_landmarks.keep_out(face, rest)  # no zone reaches an eyelid or a lip
+    keep = landmarks.keep_out(face, rest)  # no zone reaches an eyelid or a lip
     used = 0
     for ob in muscles:
         s = ob.ewrinkles_muscle

@@ -21,8 +21,8 @@ from mathutils import Matrix, Vector
 from ...core import skin_age
 from ...core.muscles import sphincter
 from ...core.muscles.muscle import LINEAR, SHEET, SPHINCTER, Muscle
+from .. import faces
 
-COLLECTION_NAME = "Wrinkle Muscles"
 RING = 24  # vertices of a sphincter's drawn ring
 
 
@@ -150,15 +150,6 @@ def signature(muscle_ob):
     return (matrix_key(muscle_ob), co.tobytes()) + parameters(muscle_ob)
 
 
-def muscle_collection(scene):
-    coll = bpy.data.collections.get(COLLECTION_NAME)
-    if coll is None or coll.library is not None:
-        coll = bpy.data.collections.new(COLLECTION_NAME)
-    if coll.name not in scene.collection.children:
-        scene.collection.children.link(coll)
-    return coll
-
-
 def create(context, face, kind, points, name=None, reach=1.3, depth_factor=0.25, **params):
     """Create a muscle object from world-space end points and register it on ``face``.
 
@@ -184,7 +175,7 @@ def create(context, face, kind, points, name=None, reach=1.3, depth_factor=0.25,
     ob.display_type = "WIRE"
     ob.show_in_front = True
     ob.hide_render = True
-    muscle_collection(context.scene).objects.link(ob)
+    faces.helper_collection(context.scene, faces.RIG_COLLECTION).objects.link(ob)
     s = ob.ewrinkles_muscle
     s.is_muscle = True
     s.kind = kind

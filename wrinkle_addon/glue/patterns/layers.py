@@ -10,9 +10,8 @@ import numpy as np
 from mathutils import Matrix, Vector
 
 from ...core.patterns import functions as patterns
-from .. import meshio, surface
+from .. import faces, landmarks, meshio, surface
 from ..errors import WrinkleError
-from ..muscles import landmarks
 
 COLLECTION_NAME = "Wrinkle Pattern Frames"
 # Per type, the parameters of the paper's shapes that new layers get beyond their defaults
@@ -150,7 +149,7 @@ def build_layer(face, mesh, lay):
 
 
 def refine_need(face, factor, scene):
-    """The pattern layers' refinement rule for ``glue.muscles.refine.refine``: a callable
+    """The pattern layers' refinement rule for ``glue.refine.refine``: a callable
     ``(rest, edges) -> indices`` of the edges in a layer's region longer than its
     ``core.patterns.functions.half_cycle`` over ``factor``, or None when the face has no layer to
     show.  Layers that cannot be built (no frame, an empty group) ask for nothing."""
@@ -207,15 +206,6 @@ def values(face, lay, scene, skin_compression=None):
 
 
 # --------------------------------------------------------------------------- operators
-def _frame_collection(scene):
-    coll = bpy.data.collections.get(COLLECTION_NAME)
-    if coll is None:
-        coll = bpy.data.collections.new(COLLECTION_NAME)
-    if scene.user_of_id(coll) == 0:
-        scene.collection.children.link(coll)
-    return coll
-
-
 def surface_frame(face, point, normal, unit, up=(0.0, 0.0, 1.0), flip=False, aspect=1.0):
     """A world matrix at ``point`` (face space) with z along ``normal`` (face space), y along
     ``up`` (face space; the face's up, its z, by default) in the tangent plane, scaled to
@@ -307,7 +297,7 @@ def add_layer(context, face, kind, point, normal):
     normal = patch_normal(face, point, 0.35 * d["radius"] * size / face_unit(face), normal)
     ob = bpy.data.objects.new(f"{face.name} {kind.replace('_', ' ').title()} Frame", None)
     ob.empty_display_type = "ARROWS"
-    _frame_collection(context.scene).objects.link(ob)
+    faces.helper_collection(context.scene, COLLECTION_NAME).objects.link(ob)
     ob.matrix_world = surface_frame(face, point, normal, d["unit"] * size, up, flip, d["aspect"])
     st = stack(face)
     lay = st.layers.add()
@@ -358,7 +348,7 @@ def mirror_layer(context, face, index):
     flip = Matrix.Diagonal((-1.0, 1.0, 1.0, 1.0))
     ob = frame.copy()
     ob.name = frame.name + " Mirrored"
-    _frame_collection(context.scene).objects.link(ob)
+    faces.helper_collection(context.scene, COLLECTION_NAME).objects.link(ob)
     ob.matrix_world = w @ flip @ w.inverted_safe() @ frame.matrix_world
     lay = copy_layer(face, index, ob)  # src is not used after this: the add may have moved it
     lay.name = name + " Mirrored"

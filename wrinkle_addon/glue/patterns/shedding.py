@@ -23,8 +23,7 @@ from mathutils import Matrix
 
 from ...core import mesh as core_mesh
 from ...core.patterns import tears
-from .. import meshio, surface
-from ..bando import curves as bando_curves
+from .. import curve_objects, meshio, surface
 from ..faces import collections_for
 from ..nodes import Builder, float_inputs
 from ..nodes import ensure_group as ensure_group_of
@@ -201,7 +200,7 @@ def curve_path(face, curve):
     if curve.type != "CURVE" or len(curve.data.splines) != 1:
         raise TearError(f'"{curve.name}" is not a curve of one stroke: draw the tear\'s path as one '
                         "stroke (Curve > Draw, Depth: Surface)")
-    return bando_curves.face_space_samples(curve, face)[0]
+    return curve_objects.face_space_samples(curve, face)[0]
 
 
 def selected_faces_path(face, step):

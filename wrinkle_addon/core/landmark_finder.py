@@ -1,8 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Find the eight facial landmarks of ``presets.LANDMARKS`` on a face mesh.
+"""The eight facial landmarks (``LANDMARKS``), and finding them on a face mesh.  Every
+method places its work from them: the muscle set, the no-wrinkle zones (``core.zones``), the
+pattern layers' frames, the skin's regions (``core.skin``).
 
-Face-local coordinates, the face looking toward -Y, Z up, the character's left +X (the
-convention of ``presets``).  Three rules are tried in order; the first that fits gives
+Face-local coordinates, the face looking toward -Y, Z up, the character's left +X; all
+landmarks are of the character's left side except the midline ones, and the right side is
+mirrored about the plane through the glabella.  Three rules are tried in order; the first that fits gives
 the *anchors*, the centres of both eyes and the two mouth corners:
 
 1. **openings**: the mesh's own eye and mouth holes.  The boundary loops (edges used by
@@ -45,15 +48,47 @@ is ``0.3 E`` out from and ``0.31 E`` below the eye.  Every point but the eye is 
 the surface seen from the front.
 
 A face no rule fits (no nose, no eyes: a sphere, a cube) gets the bounding-box guess of
-``presets.estimate_landmarks`` and a message saying so.  Pure NumPy; no loop over
+``estimate_landmarks`` and a message saying so.  Pure NumPy; no loop over
 vertices (only over the few boundary loops, the landmarks, a handful of passes over the
 small depth image and some fifty profiles cut beside each eye).
 """
 
 import numpy as np
 
-from .. import mesh as core_mesh
-from . import presets
+from . import mesh as core_mesh
+
+LANDMARKS = (
+    ("hairline_center", "Hairline", "Middle of the hairline, where the forehead ends"),
+    ("glabella", "Glabella", "Between the eyebrows, on the midline"),
+    ("brow_outer_L", "Brow Outer (left)", "Outer end of the character's left eyebrow"),
+    ("eye_L", "Eye (left)", "Centre of the character's left eye"),
+    ("nose_tip", "Nose Tip", "Tip of the nose"),
+    ("mouth_corner_L", "Mouth Corner (left)", "Corner of the mouth on the character's left"),
+    ("chin", "Chin", "Front of the chin, on the midline"),
+    ("cheekbone_L", "Cheekbone (left)", "Most prominent point of the left cheekbone"),
+)
+
+
+def estimate_landmarks(bbox_min, bbox_max):
+    """Rough landmark guesses from the bounding box of a head (the artist confirms them)."""
+    lo, hi = np.asarray(bbox_min, float), np.asarray(bbox_max, float)
+    cx, w = 0.5 * (lo[0] + hi[0]), hi[0] - lo[0]
+    z0, h = lo[2], hi[2] - lo[2]
+
+    def p(dx, fz):
+        return np.array([cx + dx * w, lo[1], z0 + fz * h])
+
+    return {
+        "hairline_center": p(0.0, 0.86),
+        "glabella": p(0.0, 0.66),
+        "brow_outer_L": p(0.30, 0.67),
+        "eye_L": p(0.20, 0.61),
+        "nose_tip": p(0.0, 0.47),
+        "mouth_corner_L": p(0.15, 0.33),
+        "chin": p(0.0, 0.20),
+        "cheekbone_L": p(0.27, 0.50),
+    }
+
 
 RULES = ("openings", "rig", "geometry")
 FALLBACK = "bounding box"
@@ -702,7 +737,7 @@ def _complete(p, depth, anchors, hints):
         "eye_L": None,
     }
     out = {}
-    for key, _label, _desc in presets.LANDMARKS:  # eight landmarks
+    for key, _label, _desc in LANDMARKS:  # eight landmarks
         if xz[key] is None:
             continue
         x, z = xz[key]
@@ -710,21 +745,21 @@ def _complete(p, depth, anchors, hints):
     out["nose_tip"] = np.asarray(nose, np.float64).copy()
     out["eye_L"] = eye
     out["mouth_corner_L"] = mouth
-    return {k: out[k] for k, _l, _d in presets.LANDMARKS}
+    return {k: out[k] for k, _l, _d in LANDMARKS}
 
 
 # --------------------------------------------------------------------------
 # Public API
 # --------------------------------------------------------------------------
 def find_landmarks(rest, faces, shape_keys=None, rules=RULES):
-    """The eight landmarks of ``presets.LANDMARKS`` on the face ``rest`` (N, 3).
+    """The eight landmarks of ``LANDMARKS`` on the face ``rest`` (N, 3).
 
     ``faces``: an (F, k) array of vertex indices or ``(corner_verts, starts, sizes)``.
     ``shape_keys``: optional ``{name: (N, 3) positions}`` (the key's shape, not its
     offsets) for the rig rule.  ``rules``: the rules to try, in this order.
 
     Returns ``(landmarks, method, message)``: ``landmarks`` maps every name of
-    ``presets.LANDMARKS`` to a face-local (3,) float64 point, ``method`` is the rule that
+    ``LANDMARKS`` to a face-local (3,) float64 point, ``method`` is the rule that
     fitted (one of ``RULES``) or ``FALLBACK``, ``message`` is empty unless the bounding box
     was used.
     """
@@ -751,5 +786,5 @@ def find_landmarks(rest, faces, shape_keys=None, rules=RULES):
                     return _complete(p, depth, anchors, hints), rule, ""
                 except NotFound:
                     continue
-    guess = presets.estimate_landmarks(lo, hi)
+    guess = estimate_landmarks(lo, hi)
     return {k: np.asarray(v, np.float64) for k, v in guess.items()}, FALLBACK, FALLBACK_MESSAGE

@@ -1,10 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Adaptive refinement of the wrinkling regions (Zhang 2005 §3, Fig. 11).
+"""Adaptive refinement of the wrinkling regions (Zhang 2005 §3, Fig. 11), for every method.
 
-Zhang refines where the wrinkles need resolution.  Here the criterion is the one the
-wrinkle model sets: every half cycle ``u`` (eq. 6) must span at least ``factor`` edge
-lengths wherever a wrinkle has amplitude.  ``core.muscles.refinement`` chooses the edges
-and computes where the new points go; this module does each pass in Blender:
+Zhang refines where the wrinkles need resolution.  Each wrinkle source says which edges
+are too long for its wrinkles (``WrinkleSource.refine_need``: the muscles' half cycles, the
+wrinkle curves' furrows, the pattern layers' half cycles); ``core.refinement`` closes that
+choice over the triangles and computes where the new points go; this module does each pass
+in Blender:
 
 1. read the mesh and every shape key, and the vertex normals of each;
 2. bisect the chosen edges with bmesh (one cut each; a quad with all four edges split gets a
@@ -25,10 +26,8 @@ import bmesh
 import numpy as np
 from mathutils.kdtree import KDTree
 
-from ...core.muscles import refinement
-from .. import meshio
-from . import landmarks
-from . import objects as muscle_objects
+from ..core import refinement
+from . import meshio
 
 MAX_PASSES = refinement.MAX_PASSES
 
@@ -106,7 +105,7 @@ def _merge_coincident(bm, n_old, split_pairs, rest):
 
 def bisect_pass(me, split_pairs, split_index):
     """One bisection pass over the edges ``split_index`` (``split_pairs`` their vertex pairs,
-    from ``core.muscles.refinement.split_edges``); the new points placed smoothly.  Public
+    from ``core.refinement.split_edges``); the new points placed smoothly.  Public
     for refinements with other criteria (a scene refining around wrinkle curves)."""
     n_old = len(me.vertices)
     corner, starts, sizes = meshio.read_polygons(me)
@@ -138,32 +137,27 @@ def bisect_pass(me, split_pairs, split_index):
         bm.free()
 
 
-def refine(face, muscles, factor=4.0, max_vertices=1_000_000, progress=None, extra=None):
-    """Refine ``face`` until every half cycle of ``muscles`` spans ``factor`` edges, and the
-    edges ``extra(rest, edges)`` names (another method's rule, such as the wrinkle curves')
-    are split too.
+def refine(face, need, max_vertices=1_000_000, progress=None):
+    """Refine ``face`` until no edge is left that ``need(rest, edges)`` names (the union of
+    the sources' rules, re-asked on the refined mesh after each pass).
 
     Returns a :class:`Result` whose message is set only when the rule is still broken
     (the vertex limit or the pass limit stopped it)."""
     me = face.data
-    core_muscles = [muscle_objects.to_core(m, face) for m in muscles]
     for i in range(MAX_PASSES + 1):
         rest = meshio.read_vectors(me, "position").astype(np.float64)
         edges = meshio.read_edges(me)
-        need = (refinement.refine_edges(rest, edges, core_muscles, factor, landmarks.keep_out(face, rest))
-                if core_muscles else np.zeros(0, np.int64))
-        if extra is not None:
-            need = np.union1d(need, extra(rest, edges))
-        if len(need) == 0:
+        split_needed = need(rest, edges)
+        if len(split_needed) == 0:
             return Result(i)
         if i == MAX_PASSES:
             break
         if progress:
             progress(i)
         corner, starts, sizes = meshio.read_polygons(me)
-        split, grid_quads = refinement.split_edges(rest, edges, corner, starts, sizes, need)
+        split, grid_quads = refinement.split_edges(rest, edges, corner, starts, sizes, split_needed)
         if len(rest) + len(split) + grid_quads > max_vertices:
             return Result(i, f"Stopped: refining further would exceed {max_vertices} vertices")
         bisect_pass(me, edges[split], split)
-    return Result(MAX_PASSES, f"Stopped after {MAX_PASSES} passes: {len(need)} edges are still "
+    return Result(MAX_PASSES, f"Stopped after {MAX_PASSES} passes: {len(split_needed)} edges are still "
                               "longer than the wrinkles need")
