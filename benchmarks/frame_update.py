@@ -41,8 +41,7 @@ addon_utils.enable("wrinkle_addon", default_set=True)
 from wrinkle_addon.core import mesh as core_mesh  # noqa: E402
 from wrinkle_addon.core.muscles import system, zhang  # noqa: E402
 from wrinkle_addon.glue import meshio, pipeline, stage  # noqa: E402
-from wrinkle_addon.glue.muscles import muscle_set  # noqa: E402
-from wrinkle_addon.glue.muscles import objects as muscle_objects  # noqa: E402
+from wrinkle_addon.glue.muscles import muscle_objects, muscle_set  # noqa: E402
 
 pc = time.perf_counter
 _F = np.float32

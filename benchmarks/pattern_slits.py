@@ -46,7 +46,7 @@ def heights(face):
     """(heights (N,) mm along the rest normals, shown positions (N, 3) mm, rest (N, 3) local)."""
     from wrinkle_addon.core import mesh as core_mesh
     from wrinkle_addon.glue import meshio, stage
-    from wrinkle_addon.glue.muscles import objects
+    from wrinkle_addon.glue.muscles import muscle_objects
 
     me = face.data
     rest = meshio.read_vectors(me, "position").astype(np.float64)
@@ -57,7 +57,7 @@ def heights(face):
     skin = meshio.read_vector_prefix(ev, stage.SKIN_ATTR, n, np.empty((n, 3), np.float32))
     shown = meshio.read_vector_prefix(ev, "position", n, np.empty((n, 3), np.float32))
     normals = rm.vertex_normals(rest, tris)
-    mm = 1000.0 * objects.face_scale(face)
+    mm = 1000.0 * muscle_objects.face_scale(face)
     h = np.einsum("ij,ij->i", (shown - skin).astype(np.float64), normals) * mm
     return h, shown.astype(np.float64) * mm, rest, tris
 

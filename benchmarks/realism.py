@@ -166,10 +166,10 @@ def build_procedural(target_verts=40000):
     head = headgen.make_head(target_verts)
     face = scene_setup.mesh_object_from_arrays("Head", head["positions"], head["quads"], head["corner_uvs"])
     rigging.wrinkle_face(face, head["landmarks"])
-    from wrinkle_addon.glue.muscles import objects
+    from wrinkle_addon.glue.muscles import muscle_objects
 
     scene = bpy.context.scene
-    roles = {m.ewrinkles_muscle.role for m in objects.live_muscles(face)}
+    roles = {m.ewrinkles_muscle.role for m in muscle_objects.live_muscles(face)}
     frames = {}
     for i, (name, pose) in enumerate(PROCEDURAL_POSES.items()):
         if name in REQUIRED_ROLES and not REQUIRED_ROLES[name] & roles:
@@ -180,7 +180,7 @@ def build_procedural(target_verts=40000):
             rigging.key_expressions(face, {frame: pose})
             continue
         scene.frame_set(frame)
-        for m in objects.live_muscles(face):  # keyed as the expression operator keys a preset
+        for m in muscle_objects.live_muscles(face):  # keyed as the expression operator keys a preset
             m.ewrinkles_muscle.contraction = pose.get(m.ewrinkles_muscle.role, 0.0)
             m.keyframe_insert("ewrinkles_muscle.contraction", frame=frame)
     return face, head["landmarks"], frames, None
@@ -193,7 +193,7 @@ class FaceHeights:
     def __init__(self, face):
         from wrinkle_addon.core import mesh as core_mesh
         from wrinkle_addon.glue import meshio, registry
-        from wrinkle_addon.glue.muscles import objects
+        from wrinkle_addon.glue.muscles import muscle_objects
 
         self.face = face
         me = face.data
@@ -204,9 +204,9 @@ class FaceHeights:
         self.source = next(s for s in registry.sources() if s.name == "muscles")
         in_scene = {o.session_uid for o in bpy.context.scene.objects}
         self.static = self.source.build(face, self.mesh, in_scene)
-        self.mm = 1000.0 * objects.face_scale(face)  # local units -> mm
+        self.mm = 1000.0 * muscle_objects.face_scale(face)  # local units -> mm
         # each muscle's role, in the order of the plan's muscles (the source's static.names)
-        roles = {ob.name: ob.ewrinkles_muscle.role for ob in objects.live_muscles(face)}
+        roles = {ob.name: ob.ewrinkles_muscle.role for ob in muscle_objects.live_muscles(face)}
         self.roles = [roles.get(n) for n in self.static.names]
 
     def role_verts(self, role):

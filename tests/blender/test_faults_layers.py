@@ -26,7 +26,7 @@ import pytest
 
 from tests.blender import scenes
 from wrinkle_addon.glue.bando import curves
-from wrinkle_addon.glue.patterns import layers as glue
+from wrinkle_addon.glue.patterns import pattern_layers as glue
 from wrinkle_addon.glue.patterns import shedding, tears
 from wrinkle_addon.ops.common import nothing_left_on_failure
 

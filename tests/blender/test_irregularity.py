@@ -10,7 +10,7 @@ import pytest
 from tests.blender import scenes
 from tests.blender.test_ui_contract import _Layout
 from wrinkle_addon.core.muscles import irregularity
-from wrinkle_addon.glue.muscles import objects
+from wrinkle_addon.glue.muscles import muscle_objects
 from wrinkle_addon.ui import muscles as muscles_ui
 
 # make_face's columns on one side of the midline: the depth and the long waves of the course
@@ -44,12 +44,12 @@ def test_a_new_face_gets_the_natural_default_and_a_seed_of_its_own():
     face, muscle = _face()
     s = face.ewrinkles_face
     assert s.irregularity == pytest.approx(irregularity.DEFAULT) and s.is_property_set("irregularity")
-    assert s.seed == objects.name_seed("Face") != 0
+    assert s.seed == muscle_objects.name_seed("Face") != 0
     assert muscle.ewrinkles_muscle.irregularity == 1.0
-    core = objects.to_core(muscle, face)
+    core = muscle_objects.to_core(muscle, face)
     assert core.irregularity == pytest.approx(irregularity.DEFAULT) and core.seed == s.seed
     s.irregularity, muscle.ewrinkles_muscle.irregularity = 1.5, 0.5
-    assert objects.to_core(muscle, face).irregularity == pytest.approx(0.75)  # face x muscle
+    assert muscle_objects.to_core(muscle, face).irregularity == pytest.approx(0.75)  # face x muscle
 
 
 def test_the_face_setting_reaches_the_plan_and_zero_gives_regular_furrows():
@@ -123,4 +123,4 @@ def test_a_version_0_2_file_opens_with_regular_wrinkles(tmp_path):
     bpy.ops.wm.open_mainfile(filepath=str(path))
     s = bpy.data.objects["Face"].ewrinkles_face
     assert s.irregularity == 0.0 and s.is_property_set("irregularity")
-    assert objects.to_core(s.muscles[0].object, bpy.data.objects["Face"]).irregularity == 0.0
+    assert muscle_objects.to_core(s.muscles[0].object, bpy.data.objects["Face"]).irregularity == 0.0

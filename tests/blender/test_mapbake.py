@@ -11,7 +11,7 @@ from wrinkle_addon.core.maps import jimenez as wrinkle_maps
 from wrinkle_addon.core.muscles import fields
 from wrinkle_addon.glue.errors import WrinkleError
 from wrinkle_addon.glue.maps import map_bake
-from wrinkle_addon.glue.muscles import objects as muscle_objects
+from wrinkle_addon.glue.muscles import muscle_objects
 
 ICT = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"
 
@@ -405,7 +405,7 @@ def test_ict_corrugators_own_the_glabella():
     frown lines all but vanished from the maps."""
     from sample_scenes.lib import ict, rigging
     from wrinkle_addon.core.muscles.fields import muscle_field
-    from wrinkle_addon.glue.muscles import objects as muscle_objects
+    from wrinkle_addon.glue.muscles import muscle_objects
 
     data = ict.load_ict(ICT)
     face = ict.ict_object(data, name="ICTHead")

@@ -8,7 +8,7 @@ from tests.blender import scenes
 from wrinkle_addon.core import landmark_finder
 from wrinkle_addon.core.muscles import presets
 from wrinkle_addon.glue import pipeline
-from wrinkle_addon.glue.muscles import objects as muscle_objects
+from wrinkle_addon.glue.muscles import muscle_objects
 
 
 def test_refine_keeps_uvs_shape_keys_vertex_groups_and_materials():

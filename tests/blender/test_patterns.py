@@ -8,7 +8,7 @@ import pytest
 from tests.blender import scenes
 from tests.blender.test_curves import heights
 from wrinkle_addon.core.patterns import functions as patterns
-from wrinkle_addon.glue.patterns import layers as glue
+from wrinkle_addon.glue.patterns import pattern_layers as glue
 
 MID = scenes.HEIGHT / 2
 

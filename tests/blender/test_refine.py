@@ -9,7 +9,7 @@ import numpy as np
 from tests.blender import scenes
 from wrinkle_addon.core.muscles import resolution
 from wrinkle_addon.glue import landmarks, meshio, refine
-from wrinkle_addon.glue.muscles import objects as muscle_objects
+from wrinkle_addon.glue.muscles import muscle_objects
 from wrinkle_addon.glue.muscles.resolution import refine_need
 
 DATA = Path(__file__).resolve().parents[2] / "wrinkle_addon" / "data" / "ict_head.npz"

@@ -13,7 +13,7 @@ from tests.blender.test_curves import uv_face
 from tests.blender.test_ui_contract import _Layout
 from wrinkle_addon.core import skin_age
 from wrinkle_addon.glue.bando import fine as fine_glue
-from wrinkle_addon.glue.muscles import objects
+from wrinkle_addon.glue.muscles import muscle_objects
 from wrinkle_addon.ui import bando as bando_ui
 from wrinkle_addon.ui import panels
 
@@ -33,14 +33,14 @@ def test_the_default_is_neutral_and_the_core_muscle_scales_with_age():
     face, muscle = _face()
     s = face.ewrinkles_face
     assert s.skin_age == skin_age.NEUTRAL
-    neutral = objects.to_core(muscle, face)
-    assert neutral.k0 == pytest.approx(muscle.ewrinkles_muscle.k0 / objects.face_scale(face))
+    neutral = muscle_objects.to_core(muscle, face)
+    assert neutral.k0 == pytest.approx(muscle.ewrinkles_muscle.k0 / muscle_objects.face_scale(face))
     s.skin_age = 1.0
-    old = objects.to_core(muscle, face)
+    old = muscle_objects.to_core(muscle, face)
     assert old.k0 == pytest.approx(1.4 * neutral.k0)
     assert old.irregularity == pytest.approx(1.5 * neutral.irregularity)
     s.skin_age = 0.0
-    young = objects.to_core(muscle, face)
+    young = muscle_objects.to_core(muscle, face)
     assert young.k0 == pytest.approx(0.6 * neutral.k0)
     assert young.irregularity == pytest.approx(0.5 * neutral.irregularity)
 

@@ -9,7 +9,7 @@ from sample_scenes.lib import headgen, rigging, scene_setup
 from wrinkle_addon.core import zones
 from wrinkle_addon.glue import landmarks
 from wrinkle_addon.glue.maps import map_bake
-from wrinkle_addon.glue.muscles import objects as muscle_objects
+from wrinkle_addon.glue.muscles import muscle_objects
 
 
 @pytest.fixture(scope="module")

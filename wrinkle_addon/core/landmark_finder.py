@@ -55,7 +55,7 @@ small depth image and some fifty profiles cut beside each eye).
 
 import numpy as np
 
-from . import mesh as core_mesh
+from . import mesh
 
 LANDMARKS = (
     ("hairline_center", "Hairline", "Middle of the hairline, where the forehead ends"),
@@ -767,7 +767,7 @@ def find_landmarks(rest, faces, shape_keys=None, rules=RULES):
     lo, hi = p.min(axis=0) if len(p) else np.zeros(3), p.max(axis=0) if len(p) else np.zeros(3)
     if len(p) >= 4:
         corner, starts, sizes = polygons(faces)
-        tris = core_mesh.fan_triangles(corner, starts, sizes).astype(np.int64)
+        tris = mesh.fan_triangles(corner, starts, sizes).astype(np.int64)
         scale = float(max(hi[0] - lo[0], hi[2] - lo[2]))
         if len(tris) and scale > 0:
             depth = None

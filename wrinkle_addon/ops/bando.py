@@ -12,8 +12,7 @@ import numpy as np
 from bpy.props import FloatProperty, FloatVectorProperty
 
 from ..core.bando import curves as core_curves
-from ..glue import curve_objects, faces, pipeline
-from ..glue import surface as face_surface
+from ..glue import curve_objects, faces, pipeline, surface
 from ..glue.bando import curves, shading
 from ..glue.bando import fine as fine_glue
 from ..glue.errors import WrinkleError
@@ -24,8 +23,8 @@ _face = faces.active
 
 
 def _snapper(face):
-    s = face_surface.Surface(face, need_uv=False)
-    return face_surface.Snapper(s.rest, s.tris), s
+    s = surface.Surface(face, need_uv=False)
+    return surface.Snapper(s.rest, s.tris), s
 
 
 def _snap(snapper, local_points):

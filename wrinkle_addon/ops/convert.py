@@ -18,7 +18,7 @@ import bpy
 import numpy as np
 from bpy.props import EnumProperty, StringProperty
 
-from ..core.maps import jimenez as wrinkle_maps
+from ..core.maps import jimenez
 from ..glue import images
 from ..glue.progress import Progress
 from .common import guarded
@@ -94,7 +94,7 @@ class _MapOperator:
     # Set by subclasses.
     suffix = ""
     verb = ""
-    flat = wrinkle_maps.FLAT_NORMAL  # what a source pixel that is not finite becomes
+    flat = jimenez.FLAT_NORMAL  # what a source pixel that is not finite becomes
     flat_label = ""
 
     source_props = ("source",)
@@ -148,7 +148,7 @@ class _MapOperator:
         except images.ImageError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        pixels, n_bad = wrinkle_maps.replace_non_finite(pixels, self.flat)
+        pixels, n_bad = jimenez.replace_non_finite(pixels, self.flat)
         result = _by_rows(context, f"{self.verb} {srcs[-1].name}", self.compute, pixels)
         if n_bad:
             self.report({"WARNING"}, f"{n_bad} pixel{'s were' if n_bad > 1 else ' was'} not finite "
@@ -193,7 +193,7 @@ class WRINKLE_OT_convert_to_derivative(_MapOperator, bpy.types.Operator):
         return [("Normal map", self.source)]
 
     def compute(self, rgba):
-        return wrinkle_maps.normal_to_derivative(rgba)
+        return jimenez.normal_to_derivative(rgba)
 
 
 class WRINKLE_OT_convert_to_normal(_MapOperator, bpy.types.Operator):
@@ -210,14 +210,14 @@ class WRINKLE_OT_convert_to_normal(_MapOperator, bpy.types.Operator):
 
     suffix = "Normal"
     verb = "converting"
-    flat = wrinkle_maps.FLAT_DERIVATIVE
+    flat = jimenez.FLAT_DERIVATIVE
     flat_label = "zero slopes (0.5, 0.5): a flat normal (0.5, 0.5, 1) in the result"
 
     def sources(self):
         return [("Derivative map", self.source)]
 
     def compute(self, rgba):
-        return wrinkle_maps.derivative_to_normal(rgba)
+        return jimenez.derivative_to_normal(rgba)
 
 
 class WRINKLE_OT_make_difference_map(_MapOperator, bpy.types.Operator):
@@ -246,7 +246,7 @@ class WRINKLE_OT_make_difference_map(_MapOperator, bpy.types.Operator):
         return [("Base normal map", self.base), ("Wrinkle normal map", self.wrinkle)]
 
     def compute(self, base, wrinkle):
-        return wrinkle_maps.difference_map(base, wrinkle)
+        return jimenez.difference_map(base, wrinkle)
 
 
 classes = (

@@ -11,7 +11,7 @@ from bpy.props import BoolProperty, FloatProperty, IntProperty, StringProperty
 from ..core import landmark_finder
 from ..glue import faces, farm_bake, landmarks, pipeline, refine, registry
 from ..glue.errors import WrinkleError
-from ..glue.muscles import objects as muscle_objects
+from ..glue.muscles import muscle_objects
 from ..glue.progress import Progress
 from .common import face_poll, guarded
 

@@ -8,7 +8,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, StringProperty
 
 from ..glue import faces, images
 from ..glue.maps import map_bake
-from ..glue.muscles import objects as muscle_objects
+from ..glue.muscles import muscle_objects
 from ..glue.progress import Progress
 from .common import face_poll, guarded
 

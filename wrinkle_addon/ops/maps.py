@@ -4,11 +4,11 @@
 import bpy
 from bpy.props import BoolProperty, EnumProperty
 
-from ..core.maps import jimenez as wm
+from ..core.maps import jimenez
 from ..core.muscles import presets
 from ..glue import faces
 from ..glue.maps import map_material
-from ..glue.muscles import objects as muscle_objects
+from ..glue.muscles import muscle_objects
 from .common import face_ok, face_poll, guarded
 
 # ARKit shape keys that carry each of Table 1.1's expressions, best first (a face's own
@@ -154,11 +154,11 @@ def load_preset(face, preset, replace=True):
     bound = 0
     if preset == "TABLE_1_1":
         rows = [(name, weights, ("SHAPE_KEY", _shape_key(face, ARKIT_SOURCES[name])))
-                for name, weights in wm.TABLE_1_1.items()]
+                for name, weights in jimenez.TABLE_1_1.items()]
     else:
         muscles = muscle_objects.live_muscles(face)
         expressions = {k: v for k, v in presets.EXPRESSIONS.items() if v}
-        table = wm.table_from_expressions(expressions)
+        table = jimenez.table_from_expressions(expressions)
         rows = []
         for (key, contractions), weights in zip(expressions.items(), table):
             role = max(contractions, key=contractions.get)

@@ -23,8 +23,7 @@ from mathutils import Vector
 from ..core.muscles import presets
 from ..glue import drivers, faces, landmarks, pipeline
 from ..glue.errors import WrinkleError
-from ..glue.muscles import muscle_set
-from ..glue.muscles import objects as muscle_objects
+from ..glue.muscles import muscle_objects, muscle_set
 from .common import face_poll, guarded, select_only
 
 MUSCLE_KINDS = [

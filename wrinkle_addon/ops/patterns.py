@@ -9,8 +9,7 @@ from bpy.props import EnumProperty, FloatProperty, IntProperty
 
 from ..core.patterns.functions import KINDS
 from ..glue import faces, pipeline
-from ..glue.patterns import layers as glue
-from ..glue.patterns import shedding, tears
+from ..glue.patterns import pattern_layers, shedding, tears
 from ..glue.progress import Progress
 from ..glue.registry import MeshArrays
 from ..glue.surface import Surface
@@ -21,7 +20,7 @@ def _active_layer(context):
     """The face, its stack and the index of its active layer (-1: none)."""
     face = faces.active(context)
     st = face.ewrinkles_face.patterns
-    return face, st, glue.active_index(st)
+    return face, st, pattern_layers.active_index(st)
 
 
 class _LayerOperator:
@@ -51,8 +50,8 @@ def _on_skin(context, face, where):
     if face.mode == "EDIT":
         face.update_from_editmode()
     if where == "SELECTED":
-        return glue.selected_point(face)
-    return glue.nearest_on_skin(face, context.scene.cursor.location)
+        return pattern_layers.selected_point(face)
+    return pattern_layers.nearest_on_skin(face, context.scene.cursor.location)
 
 
 class WRINKLE_OT_add_pattern(bpy.types.Operator):
@@ -73,7 +72,7 @@ class WRINKLE_OT_add_pattern(bpy.types.Operator):
         face = faces.active(context)
         point, normal = _on_skin(context, face, self.where)
         with nothing_left_on_failure():
-            lay = glue.add_layer(context, face, self.kind, point, normal)
+            lay = pattern_layers.add_layer(context, face, self.kind, point, normal)
         pipeline.refresh_all(context)
         self.report({"INFO"}, f'Added the pattern "{lay.name}" to "{face.name}"')
         return {"FINISHED"}
@@ -104,7 +103,7 @@ class WRINKLE_OT_duplicate_pattern(_LayerOperator, bpy.types.Operator):
     def execute(self, context):
         face, st, i = _active_layer(context)
         name = st.layers[i].name
-        glue.copy_layer(face, i).name = name + " Copy"
+        pattern_layers.copy_layer(face, i).name = name + " Copy"
         pipeline.refresh_all(context)
         return {"FINISHED"}
 
@@ -140,7 +139,7 @@ class WRINKLE_OT_mirror_pattern(_LayerOperator, bpy.types.Operator):
     def execute(self, context):
         face, _st, i = _active_layer(context)
         with nothing_left_on_failure():
-            glue.mirror_layer(context, face, i)
+            pattern_layers.mirror_layer(context, face, i)
         pipeline.refresh_all(context)
         return {"FINISHED"}
 
@@ -156,9 +155,9 @@ class WRINKLE_OT_apply_pattern(_LayerOperator, bpy.types.Operator):
     def execute(self, context):
         face, _st, i = _active_layer(context)
         if face.mode == "EDIT":
-            raise glue.PatternError("Leave Edit Mode to apply a pattern")
+            raise pattern_layers.PatternError("Leave Edit Mode to apply a pattern")
         s = Surface(face, need_uv=False)
-        key = glue.apply_layer(context, face, i, MeshArrays(s.rest, s.edges, s.tris))
+        key = pattern_layers.apply_layer(context, face, i, MeshArrays(s.rest, s.edges, s.tris))
         pipeline.refresh_all(context)
         self.report({"INFO"}, f'Applied as the shape key "{key.name}"')
         return {"FINISHED"}
@@ -186,7 +185,7 @@ class WRINKLE_OT_add_teardrop(bpy.types.Operator):
     def execute(self, context):
         face = faces.active(context)
         point, normal = _on_skin(context, face, self.where)
-        size = glue.face_size(face) * glue.face_unit(face)
+        size = pattern_layers.face_size(face) * pattern_layers.face_unit(face)
         # the drop hangs from its pointed top along the world's gravity, its widest radius about
         # 1.5 Width out from its axis: it forms on the skin, not in it, out along the normal by
         # that radius where the skin is upright, and from the skin itself where it faces down
@@ -249,7 +248,7 @@ class WRINKLE_OT_add_shedding_tear(bpy.types.Operator):
         face = faces.active(context)
         if face.mode == "EDIT":
             face.update_from_editmode()
-        half = 0.5 * self.width * glue.face_size(face)  # face units
+        half = 0.5 * self.width * pattern_layers.face_size(face)  # face units
         curves = [o for o in context.selected_objects if o.type == "CURVE"]
         kind = self.path if self.path != "AUTO" else ("CURVE" if curves else "FACES")
         with Progress(context, self.bl_label) as progress, nothing_left_on_failure():

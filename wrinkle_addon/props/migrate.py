@@ -21,7 +21,7 @@ holds nothing the add-on could use.
 A face saved before the muscles' *Irregularity* existed keeps the regular wrinkles it was
 saved with (:func:`keep_regular`): its Irregularity, which the file does not hold, is set
 to 0 instead of the natural default a new face gets.  A new face stores its own when it is
-set up (``glue.muscles.objects.set_up_face``), so the two are told apart.
+set up (``glue.muscles.muscle_objects.set_up_face``), so the two are told apart.
 """
 
 import bpy

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..core.muscles import system
 from ..glue import landmarks
-from ..glue.muscles import objects, resolution
+from ..glue.muscles import muscle_objects, resolution
 from ..glue.registry import WrinkleSource
 from ..ui import muscles as muscles_ui
 
@@ -18,9 +18,9 @@ class _Static:
     def __init__(self, plan, refs, n_refs, muscles, marks, face_params, left_out=frozenset()):
         self.plan, self.footprint, self.refs, self.n_refs = plan, plan.footprint, refs, n_refs
         self.names = [m.name for m in muscles]
-        self.not_finite = [objects.not_finite(m) for m in muscles]
+        self.not_finite = [muscle_objects.not_finite(m) for m in muscles]
         self.uids = frozenset(m.session_uid for m in muscles + marks)
-        self.params = {m.session_uid: objects.parameters(m) for m in muscles}
+        self.params = {m.session_uid: muscle_objects.parameters(m) for m in muscles}
         self.objects = {m.session_uid: m for m in muscles}
         self.face_params = face_params  # the face's Irregularity and Seed
         self.left_out = left_out  # the face's muscle objects that were in no scene at the build
@@ -42,7 +42,7 @@ class _Contraction:
 
 def _live_refs(face, in_scene):
     """Indices into the face's muscle list of the muscles that still exist in the scene."""
-    live = {m.session_uid for m in objects.live_muscles(face, in_scene)}
+    live = {m.session_uid for m in muscle_objects.live_muscles(face, in_scene)}
     return [i for i, r in enumerate(face.ewrinkles_face.muscles) if r.object is not None
             and r.object.session_uid in live]
 
@@ -56,23 +56,24 @@ class MuscleSource(WrinkleSource):
         return len(face.ewrinkles_face.muscles) > 0
 
     def static_key(self, face, in_scene):
-        muscles = objects.live_muscles(face, in_scene)
+        muscles = muscle_objects.live_muscles(face, in_scene)
         marks = landmarks.landmark_positions(face)
         marks = None if marks is None else tuple(tuple(v) for v in marks.values())
-        return ((objects.matrix_key(face), marks, objects.face_parameters(face))
-                + tuple(objects.signature(m) for m in muscles))
+        return ((muscle_objects.matrix_key(face), marks, muscle_objects.face_parameters(face))
+                + tuple(muscle_objects.signature(m) for m in muscles))
 
     def build(self, face, mesh, in_scene):
         refs = _live_refs(face, in_scene)
         muscles = [face.ewrinkles_face.muscles[i].object for i in refs]
-        core = [objects.to_core(m, face) for m in muscles]
+        core = [muscle_objects.to_core(m, face) for m in muscles]
         # the landmarks, when placed, keep every muscle off the eyelids and the lips
         keep = landmarks.keep_out(face, mesh.rest)
         plan = system.build_plan(mesh.rest, mesh.edges, mesh.tris, core, keep_out=keep)
         marks = landmarks.landmark_objects(face)
         listed = {ref.object.session_uid for ref in face.ewrinkles_face.muscles if ref.object is not None}
         return _Static(plan, refs, len(face.ewrinkles_face.muscles), muscles, marks,
-                       objects.face_parameters(face), frozenset(listed - {m.session_uid for m in muscles}))
+                       muscle_objects.face_parameters(face),
+                       frozenset(listed - {m.session_uid for m in muscles}))
 
     def unchanged(self, face, static, changes, in_scene):
         # Muscles are placed in the face's space: a moved face, or a muscle or landmark
@@ -87,7 +88,7 @@ class MuscleSource(WrinkleSource):
             return False
         if static.left_out and (static.left_out & in_scene):  # a muscle linked into the scene again
             return False
-        if objects.face_parameters(face) != static.face_params:  # Irregularity, Seed or Skin Age changed
+        if muscle_objects.face_parameters(face) != static.face_params:  # Irregularity, Seed, Skin Age
             return False
         touched = static.uids & changes.keys()
         if not touched:
@@ -98,7 +99,7 @@ class MuscleSource(WrinkleSource):
         # which returned above): only the touched muscles' parameters need a look
         for uid in touched:
             ob = static.objects.get(uid)
-            if ob is not None and objects.parameters(ob) != static.params[uid]:  # None: a landmark
+            if ob is not None and muscle_objects.parameters(ob) != static.params[uid]:  # None: a landmark
                 return False
         return True
 

@@ -7,10 +7,9 @@ import bpy
 import numpy as np
 
 from ..core import combine
-from ..core.patterns import functions as patterns
+from ..core.patterns import functions
 from ..glue import drivers, landmarks, meshio, pipeline
-from ..glue.patterns import layers as glue
-from ..glue.patterns import shedding
+from ..glue.patterns import pattern_layers, shedding
 from ..glue.registry import WrinkleSource
 from ..props.patterns import PatternStack
 from ..ui import patterns as patterns_ui
@@ -22,7 +21,7 @@ class _Static:
 
     def __init__(self, layers=(), layer_of=(), placed=(), problem="", watched=None, present=None,
                  known=frozenset(), n_layers=-1):
-        self.plan = patterns.plan(layers)
+        self.plan = functions.plan(layers)
         self.layer_of = tuple(layer_of)  # the stack index of each built layer
         self.placed = tuple(placed)  # where each layer's frame was when it was built
         self.footprint = combine.Footprint(height_verts=self.plan.footprint)
@@ -71,8 +70,8 @@ def _frame_key(face, lay):
     if ob is None:
         return None
     try:
-        around = glue.setting(lay, "region") == "RADIUS"
-    except glue.PatternError:  # a value this version does not know: build_layer says so
+        around = pattern_layers.setting(lay, "region") == "RADIUS"
+    except pattern_layers.PatternError:  # a value this version does not know: build_layer says so
         around = False
     if not around:
         return (ob.name,)
@@ -82,7 +81,7 @@ def _frame_key(face, lay):
 
 def _placement(face_matrix, face_inverse, lay):
     """Where the layer's frame is this frame: the face-to-frame matrix (16 floats, row by
-    row) and the length of the frame's z in the face's units (``glue.to_frame``), in
+    row) and the length of the frame's z in the face's units (``pattern_layers.to_frame``), in
     mathutils alone (a few microseconds a layer)."""
     frame = lay.frame.matrix_world
     m = frame.inverted_safe() @ face_matrix
@@ -114,10 +113,10 @@ class PatternSource(WrinkleSource):
         marks = None if marks is None else tuple(tuple(v) for v in marks.values())
         # the face's scale (radius and border are scene lengths), not where it is: the
         # layers live in its space
-        key = [round(glue.face_unit(face), 9), meshio.topology_key(face.data), marks]
+        key = [round(pattern_layers.face_unit(face), 9), meshio.topology_key(face.data), marks]
         for lay in face.ewrinkles_face.patterns.layers:
             in_it = lay.frame is not None and lay.frame.session_uid in in_scene
-            numbers = tuple(glue.setting(lay, p) for p in ("radius", "border", "fraction", "seed"))
+            numbers = tuple(pattern_layers.setting(lay, p) for p in ("radius", "border", "fraction", "seed"))
             # what build_layer reads (a stored NaN reads as the default)
             key.append((lay.kind, lay.shape, lay.region, lay.drive, _frame_key(face, lay), in_it,
                         lay.vertex_group) + numbers)
@@ -128,10 +127,10 @@ class PatternSource(WrinkleSource):
         fw, inverse = face.matrix_world, face.matrix_world.inverted_safe()
         for i, lay in enumerate(face.ewrinkles_face.patterns.layers):
             try:
-                layers.append(glue.build_layer(face, mesh, lay))
+                layers.append(pattern_layers.build_layer(face, mesh, lay))
                 index.append(i)
                 placed.append(_placement(fw, inverse, lay))
-            except glue.PatternError as exc:
+            except pattern_layers.PatternError as exc:
                 problems.append(str(exc))
         watched, present = _watch(face, in_scene)
         return _Static(layers, index, placed, "; ".join(problems), watched, present, frozenset(in_scene),
@@ -148,9 +147,9 @@ class PatternSource(WrinkleSource):
             if lay is None or not (lay.show_render if render else lay.show_viewport):
                 out.append(((0.0, 0.0, 0.0, 0.0, 0.0, 0.0), None))
                 continue
-            full = glue.setting(lay, "full_compression") if lay.drive == "COMPRESSION" else 0.0
+            full = pattern_layers.setting(lay, "full_compression") if lay.drive == "COMPRESSION" else 0.0
             placed = _placement(fw, inverse, lay) if lay.frame is not None else None
-            out.append((glue.values(face, lay, scene) + (full,), placed))
+            out.append((pattern_layers.values(face, lay, scene) + (full,), placed))
         return tuple(out)
 
     def contribute(self, face, static, skin, inputs):
@@ -160,18 +159,18 @@ class PatternSource(WrinkleSource):
         for lay, (v, placed), built in zip(static.plan.layers, inputs, static.placed):
             t, strength, a, b, g, full = v
             if placed is not None and placed != built and strength != 0.0:  # its frame moved
-                lay = patterns.in_frame(lay, placed[0], placed[1])
+                lay = functions.in_frame(lay, placed[0], placed[1])
             if full > 0.0 and strength != 0.0:  # driven by the region's compression
-                strength *= min(patterns.compression(lay, skin) / full, 1.0)
+                strength *= min(functions.compression(lay, skin) / full, 1.0)
             vals.append((t, strength, a, b, g))
             layers.append(lay)
-        plan = patterns.Plan(tuple(layers), static.plan.footprint, static.plan.index)
-        return combine.Contribution(height=patterns.heights(plan, vals).astype(np.float32))
+        plan = functions.Plan(tuple(layers), static.plan.footprint, static.plan.index)
+        return combine.Contribution(height=functions.heights(plan, vals).astype(np.float32))
 
     def map_heights(self, face, mesh, skin, formed):
         static = self.build(face, mesh, {o.session_uid for o in bpy.context.scene.objects})
         if static.problem:
-            raise glue.PatternError(static.problem)
+            raise pattern_layers.PatternError(static.problem)
         if len(static.plan.footprint) == 0:
             return None
         vals = self.inputs(face, static)
@@ -185,7 +184,7 @@ class PatternSource(WrinkleSource):
         shedding.follow(old, new)  # the shedding tears follow the stand-in's skin, and back
 
     def refine_need(self, face, factor, scene):
-        return glue.refine_need(face, factor, scene)
+        return pattern_layers.refine_need(face, factor, scene)
 
     def problems(self, face, static):
         return static.problem

@@ -10,7 +10,7 @@ import bpy
 import numpy as np
 
 from ..core.muscles import outline
-from ..glue.muscles import objects as muscle_objects
+from ..glue.muscles import muscle_objects
 
 _handle = None
 _COLORS = {"aoi": (0.3, 0.7, 1.0, 0.8), "region": (1.0, 0.55, 0.1, 1.0)}

@@ -3,8 +3,8 @@
 
 import bpy
 
-from ..core.patterns import functions as patterns
-from ..glue.patterns import layers as glue
+from ..core.patterns import functions
+from ..glue.patterns import pattern_layers
 
 
 class WRINKLE_UL_patterns(bpy.types.UIList):
@@ -39,11 +39,11 @@ def draw_face_patterns(layout, context, face):
         layout.operator("wrinkle.refine", icon="MOD_SUBSURF")
     if not st.layers:
         return
-    lay = st.layers[glue.active_index(st)]
+    lay = st.layers[pattern_layers.active_index(st)]
     col = layout.column()
     col.use_property_split = True
     col.prop(lay, "kind")
-    if lay.kind in patterns.VARIANTS:
+    if lay.kind in functions.VARIANTS:
         col.prop(lay, "shape")
     col.prop(lay, "frame")
     col.prop(lay, "region")
@@ -53,7 +53,7 @@ def draw_face_patterns(layout, context, face):
         col.prop_search(lay, "vertex_group", face, "vertex_groups")
     col.prop(lay, "border")
     # None: a type this version does not know (the source says so)
-    spec = patterns.spec(lay.kind, lay.shape) if lay.kind in patterns.PATTERNS else None
+    spec = functions.spec(lay.kind, lay.shape) if lay.kind in functions.PATTERNS else None
     for p in spec.params if spec is not None else ():
         col.prop(lay, p.prop, text=p.name)
     if spec is None or spec.uses_time:

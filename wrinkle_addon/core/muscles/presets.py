@@ -98,7 +98,7 @@ def _corrugator(g, ey, sign, e):
     """The Corrugator sheet's corners ``[m_A1, m_A2, m_I2, m_I1]`` (x, z) for the side
     ``sign``: its attachment line on the midline from 0.4 to 0.9 of the glabella's height
     over the eyes, below and above the glabella; its length ``Ls`` (``reach`` times the
-    attachment-insertion distance, as ``glue.muscles.objects`` sizes a sheet) such that
+    attachment-insertion distance, as ``glue.muscles.muscle_objects`` sizes a sheet) such that
     eq. 7's middle furrow of two (``n_w = 2``, ``lambda_w`` 0: at ``(1 + lambda_w) Ls / 2
     = Ls / 2``) lies ``CORRUGATOR_LINE`` E out; the fibres drooping by ``CORRUGATOR_DROOP``."""
     lam, reach = ROLE_PARAMS["CORRUGATOR"]["lambda_w"], ROLE_PARAMS["CORRUGATOR"]["reach"]

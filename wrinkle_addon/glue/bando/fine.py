@@ -18,7 +18,7 @@ from ...core.bando import field, fine, mapped, parts
 from ...core.muscles import system
 from .. import curve_objects, images, landmarks, meshio, nodes, pipeline, surface
 from ..errors import WrinkleError
-from ..muscles import objects as muscle_objects
+from ..muscles import muscle_objects
 from . import curves, fine_tree, shading
 
 GUIDE_ATTR = "ewrinkles_fine_guide"  # point vectors (face space): directions on vertices

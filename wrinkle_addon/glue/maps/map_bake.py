@@ -16,13 +16,12 @@ import numpy as np
 
 from ...core import mesh as core_mesh
 from ...core import raster
-from ...core.maps import jimenez as wrinkle_maps
-from ...core.maps import uvmaps
+from ...core.maps import jimenez, uvmaps
 from ...core.muscles import system
 from ...core.muscles.fields import muscle_field
 from .. import faces, landmarks, meshio, registry, surface
 from ..errors import WrinkleError
-from ..muscles import objects as muscle_objects
+from ..muscles import muscle_objects
 
 MODES = (
     ("MUSCLES", "Each Muscle Contracted",
@@ -46,7 +45,7 @@ SOURCES = (
      "Each zone is a vertex group of the face: by default 'Wrinkle Zone 1' to 'Wrinkle Zone 8'"),
 )
 DEFAULT_SOFTNESS = 0.01  # zone border width on the skin, in world units
-DEFAULT_GROUPS = tuple(f"Wrinkle Zone {z + 1}" for z in range(wrinkle_maps.N_ZONES))
+DEFAULT_GROUPS = tuple(f"Wrinkle Zone {z + 1}" for z in range(jimenez.N_ZONES))
 
 
 class MapBakeError(WrinkleError):
@@ -213,7 +212,7 @@ def _soften(surface, memberships, inside, softness):
 def _zones_of(ob):
     """The mask zones a muscle object wrinkles ((-1,): none, like the vertices outside)."""
     s = ob.ewrinkles_muscle
-    pair = wrinkle_maps.ZONE_OF_ROLE.get(s.role)
+    pair = jimenez.ZONE_OF_ROLE.get(s.role)
     if pair is None:
         return (-1,)
     return {"L": (pair[0],), "R": (pair[1],)}.get(s.side, pair)
@@ -297,7 +296,7 @@ def muscle_zones(face, surface=None, muscles=None):
     sign twice per wrinkle cycle, so its envelope is taken as the largest ``|H(w) At|``
     within one half cycle ``u`` (a max-filter on the mesh, restricted to the region):
     that keeps the fall-off across the sheet (``At``) and at the ends, without stripes.
-    The zone of a muscle comes from its role and side (``wrinkle_maps.ZONE_OF_ROLE``; a
+    The zone of a muscle comes from its role and side (``jimenez.ZONE_OF_ROLE``; a
     centre muscle fills the left zone on +X and the right one on -X); a zone takes the
     largest membership of its muscles, and each vertex keeps only the zone whose muscle
     has the largest envelope there.
@@ -307,13 +306,13 @@ def muscle_zones(face, surface=None, muscles=None):
     muscles = _muscles(face, muscles)
     rest = surface.rest
     n = len(rest)
-    zones = np.zeros((n, wrinkle_maps.N_ZONES), np.float32)
-    raw = np.zeros((n, wrinkle_maps.N_ZONES), np.float32)
+    zones = np.zeros((n, jimenez.N_ZONES), np.float32)
+    raw = np.zeros((n, jimenez.N_ZONES), np.float32)
     keep = landmarks.keep_out(face, rest)  # no zone reaches an eyelid or a lip
     used = 0
     for ob in muscles:
         s = ob.ewrinkles_muscle
-        pair = wrinkle_maps.ZONE_OF_ROLE.get(s.role)
+        pair = jimenez.ZONE_OF_ROLE.get(s.role)
         if pair is None:
             continue
         targets = {"L": (pair[0],), "R": (pair[1],)}.get(s.side, tuple(set(pair)))
@@ -352,14 +351,14 @@ def muscle_zones(face, surface=None, muscles=None):
     # per muscle, the broad Frontalis took all but 56 of the Corrugator's vertices and
     # Anger's frown lines vanished); the soft borders are made afterwards.
     strongest = raw.argmax(axis=1)
-    return np.where(np.arange(wrinkle_maps.N_ZONES) == strongest[:, None], zones, 0.0).astype(np.float32)
+    return np.where(np.arange(jimenez.N_ZONES) == strongest[:, None], zones, 0.0).astype(np.float32)
 
 
 def _parse_groups(group_names):
     names = [g.strip() for g in (group_names or "").split(",")]
     if not any(names):
         return list(DEFAULT_GROUPS)
-    names = (names + [""] * wrinkle_maps.N_ZONES)[: wrinkle_maps.N_ZONES]
+    names = (names + [""] * jimenez.N_ZONES)[: jimenez.N_ZONES]
     return names
 
 
@@ -384,7 +383,7 @@ def group_zones(face, group_names=None):
         wanted = ", ".join(f'"{n}"' for n in names if n)
         raise MapBakeError(f'"{face.name}" has none of the vertex groups {wanted}')
     vert, group, weight = meshio.vertex_group_weights(face.data, index.keys())
-    zones = np.zeros((len(face.data.vertices), wrinkle_maps.N_ZONES), np.float32)
+    zones = np.zeros((len(face.data.vertices), jimenez.N_ZONES), np.float32)
     for gi, zs in index.items():
         sel = group == gi
         for z in zs:

@@ -15,8 +15,8 @@ normal link, the baked paths) are validated: anything malformed counts as absent
 import bpy
 import numpy as np
 
-from ...core import mesh as core_mesh
-from ...core.maps import jimenez as wm
+from ...core import mesh
+from ...core.maps import jimenez
 from ...core.maps.jimenez import N_ZONES
 from .. import drivers, faces, images, meshio, nodes, pipeline
 from .. import status as status_store
@@ -88,8 +88,8 @@ def zone_weights(face):
     rows = table(maps)
     out = np.zeros((k, N_ZONES), np.float32)
     for m in range(k):
-        sums = wm.expression_sums(values[on == m], rows[on == m]) + (tension if m == 0 else 0.0)
-        out[m] = wm.zone_response(sums, np.asarray(maps.zone_strength), np.asarray(maps.zone_power))
+        sums = jimenez.expression_sums(values[on == m], rows[on == m]) + (tension if m == 0 else 0.0)
+        out[m] = jimenez.zone_response(sums, np.asarray(maps.zone_strength), np.asarray(maps.zone_power))
     return out
 
 
@@ -427,8 +427,8 @@ def tension_statics(face):
     vm = np.zeros((len(surface.rest), N_ZONES), np.float32)
     for i, img in enumerate((maps.mask_a, maps.mask_b)):
         if img is not None and img.size[0] and img.size[1]:
-            vm[:, 4 * i: 4 * i + 4] = wm.sample_nearest(images.read(img), vertex_uv)
-    return core_mesh.edge_lengths(surface.rest, surface.edges), surface.edges, vm
+            vm[:, 4 * i: 4 * i + 4] = jimenez.sample_nearest(images.read(img), vertex_uv)
+    return mesh.edge_lengths(surface.rest, surface.edges), surface.edges, vm
 
 
 def write_tension(face, values):

@@ -9,7 +9,7 @@ from mathutils import Vector
 from ...core import landmark_finder
 from ...core.muscles import presets
 from .. import landmarks
-from . import objects as muscle_objects
+from . import muscle_objects
 
 
 def build_muscle_set(context, face, points):

@@ -6,7 +6,7 @@ import numpy as np
 
 from ...core.muscles import resolution
 from .. import landmarks
-from . import objects as muscle_objects
+from . import muscle_objects
 
 
 def refine_need(face, factor, muscles=None):

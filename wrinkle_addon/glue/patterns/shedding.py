@@ -21,13 +21,13 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from ...core import mesh as core_mesh
+from ...core import mesh
 from ...core.patterns import tears
 from .. import curve_objects, meshio, surface
 from ..faces import collections_for
 from ..nodes import Builder, float_inputs
 from ..nodes import ensure_group as ensure_group_of
-from .layers import face_unit
+from .pattern_layers import face_unit
 from .tears import SURFACE_ATTR, TearError, film_material, get_input, set_input
 
 GROUP_NAME = "Shedding Tear"
@@ -233,7 +233,7 @@ class Skin:
         self.positions, self.tris = surface.triangles(face.evaluated_get(depsgraph).data)
         if len(self.tris) == 0:
             raise TearError(f'"{face.name}" has no faces for a tear to run on')
-        self.normals = core_mesh.vertex_normals(self.positions, self.tris, len(self.positions))
+        self.normals = mesh.vertex_normals(self.positions, self.tris, len(self.positions))
         self.snapper = surface.Snapper(self.positions, self.tris)
 
     def snap(self, points):

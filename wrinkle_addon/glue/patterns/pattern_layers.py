@@ -9,7 +9,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
-from ...core.patterns import functions as patterns
+from ...core.patterns import functions
 from .. import faces, landmarks, meshio, surface
 from ..errors import WrinkleError
 
@@ -86,7 +86,7 @@ def face_measure(face):
     without), else the mesh's largest extent."""
     marks = landmarks.landmark_positions(face)
     if marks is not None:
-        e = patterns.eye_distance(marks)
+        e = functions.eye_distance(marks)
         if e > 1e-9:
             return e / EYES_PER_SIZE, marks
     return face_size(face), marks
@@ -132,19 +132,19 @@ def build_layer(face, mesh, lay):
             raise PatternError(f'The layer "{lay.name}" has a radius of 0: it covers nothing')
         centre = np.array(face.matrix_world.inverted_safe() @ lay.frame.matrix_world.translation, np.float64)
         dist = np.linalg.norm(rest - centre, axis=1) * face_unit(face)
-        weight = patterns.damping_radius(dist, radius, border)
+        weight = functions.damping_radius(dist, radius, border)
         if not (weight > 0).any():
             raise PatternError(f'The layer "{lay.name}" covers no vertex: move its frame onto the skin or '
                                "make its radius larger")
     else:
         w = vertex_group_weights(face, lay.vertex_group)
         unit = face_unit(face)
-        weight = patterns.damping_border(patterns.border_distance(rest * unit, mesh.edges, w > 0, border),
+        weight = functions.damping_border(functions.border_distance(rest * unit, mesh.edges, w > 0, border),
                                          border, w)
     keep = landmarks.keep_out(face, rest)  # with the landmarks placed: nothing on lids and lips
     if keep is not None:
         weight = weight * keep
-    return patterns.layer(kind, local, rest, mesh.edges, weight, setting(lay, "fraction"),
+    return functions.layer(kind, local, rest, mesh.edges, weight, setting(lay, "fraction"),
                           setting(lay, "seed"), scale, shape)
 
 
@@ -169,7 +169,7 @@ def refine_need(face, factor, scene):
             inside = np.zeros(len(rest), bool)
             inside[built.verts] = True
             near = inside[edges[:, 0]] | inside[edges[:, 1]]
-            step = patterns.half_cycle(built.kind, t, alpha, beta, gamma, built.shape) * built.scale / factor
+            step = functions.half_cycle(built.kind, t, alpha, beta, gamma, built.shape) * built.scale / factor
             limit[near] = np.minimum(limit[near], step)
         d = rest[edges[:, 1]] - rest[edges[:, 0]]
         return np.flatnonzero(np.sqrt(np.einsum("ij,ij->i", d, d)) > limit)
@@ -186,7 +186,7 @@ def values(face, lay, scene, skin_compression=None):
     """This frame's ``(t, strength, alpha, beta, gamma)`` of the layer ``lay``; the strength
     driven by a shape key or a muscle here, by the compression in the source.  Raises
     PatternError for a type or drive this version does not know (:func:`setting`)."""
-    spec = patterns.spec(setting(lay, "kind"), setting(lay, "shape"))
+    spec = functions.spec(setting(lay, "kind"), setting(lay, "shape"))
     params = {p.key: setting(lay, p.prop) for p in spec.params}
     t = setting(lay, "time")
     if lay.follow_scene:
@@ -283,17 +283,17 @@ def add_layer(context, face, kind, point, normal):
     fold (``core.patterns.functions.places``).  Returns the layer."""
     size, marks = face_measure(face)
     size *= face_unit(face)
-    shape = "FACE" if kind in patterns.VARIANTS else "PAPER"
-    spec = patterns.spec(kind, shape)
-    f = patterns.FRAMES[kind]
+    shape = "FACE" if kind in functions.VARIANTS else "PAPER"
+    spec = functions.spec(kind, shape)
+    f = functions.FRAMES[kind]
     d = dict(KIND_DEFAULTS.get(kind, {}) if shape == "PAPER" else {}, unit=f["unit"] * EYES_PER_SIZE,
              radius=f["radius"] * EYES_PER_SIZE, aspect=f.get("aspect", 1.0))
     up, flip = (0.0, 0.0, 1.0), False
-    if marks is not None and kind in patterns.LATERAL:
+    if marks is not None and kind in functions.LATERAL:
         mid = float(np.asarray(marks["glabella"])[0])
         flip = float(point[0]) < mid
         if kind == "CHEEK" and shape == "FACE":  # along the fold; the right side's mirrored
-            up = tuple((patterns.places(marks)["CHEEK"][1] * (-1.0 if flip else 1.0, 1.0, 1.0)).tolist())
+            up = tuple((functions.places(marks)["CHEEK"][1] * (-1.0 if flip else 1.0, 1.0, 1.0)).tolist())
     normal = patch_normal(face, point, 0.35 * d["radius"] * size / face_unit(face), normal)
     ob = bpy.data.objects.new(f"{face.name} {kind.replace('_', ' ').title()} Frame", None)
     ob.empty_display_type = "ARROWS"
@@ -379,8 +379,8 @@ def apply_layer(context, face, index, mesh):
     st = stack(face)
     lay = st.layers[index]
     static = build_layer(face, mesh, lay)
-    pl = patterns.plan([static])
-    h = patterns.heights(pl, [values(face, lay, context.scene)])
+    pl = functions.plan([static])
+    h = functions.heights(pl, [values(face, lay, context.scene)])
     me = face.data
     n = len(me.vertices)
     normals = np.empty(n * 3, np.float32)
