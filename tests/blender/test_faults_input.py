@@ -277,7 +277,7 @@ def test_remove_wrinkle_maps_ignores_a_crafted_previous_normal(value):
     plane = _wired_plane()
     nt = plane.ewrinkles_face.maps.material.node_tree
     bsdf = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
-    nt.nodes[map_material.BLEND_NODE]["wrinkle_previous_normal"] = _named(value, bsdf.name)
+    nt.nodes[map_material.BLEND_NODE]["ewrinkles_previous_normal"] = _named(value, bsdf.name)
     assert bpy.ops.wrinkle.remove_wrinkle_maps.poll()
     assert bpy.ops.wrinkle.remove_wrinkle_maps() == {"FINISHED"}
     assert map_material.BLEND_NODE not in nt.nodes
@@ -288,7 +288,7 @@ def test_remove_wrinkle_maps_ignores_a_crafted_previous_normal(value):
 def test_free_bake_and_the_table_ignore_a_crafted_baked_list(value):
     plane = _wired_plane()
     maps = plane.ewrinkles_face.maps
-    maps.weights_group["wrinkle_baked"] = value
+    maps.weights_group["ewrinkles_baked"] = value
     assert bpy.ops.wrinkle.add_map_expression() == {"FINISHED"}  # binds, reading the list
     assert map_material.baked_paths(maps.weights_group) <= {"a", "b", "c"}
     if bpy.ops.wrinkle.free_bake.poll():
@@ -318,7 +318,7 @@ def test_a_weights_group_that_does_not_match_its_layout_tag_is_rebuilt(crafted):
     maps = plane.ewrinkles_face.maps
     ng = maps.weights_group
     if crafted == "layout":
-        ng["wrinkle_layout"] = {"a": 1}
+        ng["ewrinkles_layout"] = {"a": 1}
     else:  # the tag says all is there, but a node is gone (deleted by hand, or crafted)
         ng.nodes.remove(ng.nodes["Power 0 3"])
     maps.strength = 0.5  # syncs
@@ -333,7 +333,7 @@ def test_a_blend_group_whose_version_tag_lies_is_completed():
     for name in ("Strength", "Mask B Alpha"):
         ng.interface.remove(next(s for s in ng.interface.items_tree
                                  if s.item_type == "SOCKET" and s.name == name))
-    assert ng["wrinkle_map_version"] == nodegroups.VERSION  # the tag says all is there
+    assert ng["ewrinkles_map_version"] == nodegroups.VERSION  # the tag says all is there
     assert bpy.ops.wrinkle.setup_wrinkle_maps() == {"FINISHED"}
     blend = plane.ewrinkles_face.maps.material.node_tree.nodes[map_material.BLEND_NODE]
     assert "Strength" in blend.inputs and blend.inputs["Mask B Alpha"].links

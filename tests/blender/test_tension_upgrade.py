@@ -78,7 +78,8 @@ def test_a_version_1_file_opens_upgraded_with_its_values_links_and_bake(tmp_path
         legacy = {nodegroups.legacy_tension_node(z) for z in range(N_ZONES)}
         assert not [n.name for n in ng.nodes if n.name in legacy]
         assert all(n in ng.nodes for n in nodegroups.TENSION_NODES)
-        assert ng["wrinkle_layout"].startswith(f"w{nodegroups.WEIGHTS_VERSION}:")
+        assert ng["ewrinkles_layout"].startswith(f"w{nodegroups.WEIGHTS_VERSION}:")  # saved as wrinkle_layout
+        assert "wrinkle_layout" not in ng and "wrinkle_baked" not in ng
         assert nodegroups.weights_layout_matches(ng, [0], 2)  # no rebuild follows
         assert _links(ng) == _links(_fresh(face))  # wired as version 2 builds it
         want = np.array(face["v1_zone_weights"]).reshape(len(FRAMES), -1)

@@ -90,7 +90,7 @@ def _build_group(ng):
 def ensure_group():
     """The shared node group; reused when it exists, refused when linked and read-only."""
     return nodes.ensure_group(GROUP_NAME, "GeometryNodeTree", VERSION, _build_group, StageError,
-                              key="wrinkle_stage_version")
+                              key="ewrinkles_stage_version")
 
 
 def find_modifier(ob):

@@ -1,5 +1,15 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Files saved by version 0.2 open with everything kept.
+"""Files saved by older versions open with everything kept.
+
+Every custom property the add-on stores on a datablock or a node starts with
+``ewrinkles_``.  Older versions stored some under other names (:data:`KEYS`: the wrinkle
+maps' tags and baked paths, the stage's version, the landmark empties' names and
+descriptions).  On load (and when the add-on is enabled with such a file open) each is
+moved to its new name on every local node group, material, node of their trees and object
+(:func:`rename_keys`), before anything else reads them: the node groups' builders rebuild a
+group whose version tag is missing.  Where both names are stored, the new one's value is
+kept.  A landmark empty's ``description`` is moved only on an object that is one (it holds
+the landmark key): another object's own ``description`` is the artist's.
 
 Version 0.2 stored its settings under unprefixed names (``Object.wrinkles``,
 ``Object.wrinkle_muscle``).  On load (and when the add-on is enabled with such a file
@@ -28,6 +38,72 @@ import bpy
 from bpy.app.handlers import persistent
 
 RENAMES = (("wrinkles", "ewrinkles_face"), ("wrinkle_muscle", "ewrinkles_muscle"))
+# (old custom property, new): see the module doc
+KEYS = (
+    ("wrinkle_baked", "ewrinkles_baked"),  # a weights group: the data paths its bake keyed
+    ("wrinkle_layout", "ewrinkles_layout"),  # a weights group: the layout it was built for
+    ("wrinkle_map_version", "ewrinkles_map_version"),  # the Wrinkle Map Blend group
+    ("wrinkle_stage_version", "ewrinkles_stage_version"),  # the output stage's group
+    ("wrinkle_previous_normal", "ewrinkles_previous_normal"),  # the blend node of a material
+    ("wrinkle_landmark", "ewrinkles_landmark"),  # a landmark empty: its landmark
+    ("description", "ewrinkles_description"),  # a landmark empty: what it marks
+)
+
+
+def _local(idb):
+    return idb.library is None and getattr(idb, "override_library", None) is None
+
+
+def _holders(data):
+    """(name for the console, holder) of every local node group, material, node of their
+    trees and object of ``data``."""
+    for ng in data.node_groups:
+        if _local(ng):
+            yield ng.name, ng
+            for node in ng.nodes:
+                yield f"{ng.name}: {node.name}", node
+    for mat in data.materials:
+        if _local(mat):
+            yield mat.name, mat
+            for node in getattr(mat.node_tree, "nodes", ()):
+                yield f"{mat.name}: {node.name}", node
+    for ob in data.objects:
+        if _local(ob):
+            yield ob.name, ob
+
+
+def _rename(holder, where):
+    keys = set(holder.keys())
+    landmark = bool({"wrinkle_landmark", "ewrinkles_landmark"} & keys)
+    moved = []
+    for old, new in KEYS:
+        if old not in keys or (old == "description" and not landmark):  # another object's is the artist's
+            continue
+        if new not in keys:
+            try:
+                holder[new] = holder[old]  # a deep copy of the value
+            except (TypeError, ValueError):  # a value of no known type: dropped
+                print(f"Expression Wrinkles: {where}: could not keep {old}")
+        del holder[old]
+        moved.append(f"{where}: {old}")
+    return moved
+
+
+def rename_keys(data=None):
+    """Move the custom properties of :data:`KEYS` to their new names (see the module doc).
+    Returns ``"<where>: <old name>"`` for each one moved (or dropped for the new one
+    already there)."""
+    data = data or bpy.data
+    moved = []
+    for where, holder in _holders(data):
+        try:
+            moved += _rename(holder, where)
+        except Exception as exc:  # a file must open whatever it holds
+            print(f"Expression Wrinkles: {where}: could not rename its custom properties: {exc}")
+    if moved:
+        print(f"Expression Wrinkles: moved {len(moved)} custom properties of older versions to their "
+              "new names (ewrinkles_...)")
+    return moved
 
 
 def _new_path(path):
@@ -200,6 +276,7 @@ def keep_regular(data=None):
 
 @persistent
 def on_load_post(*_args):
+    rename_keys()
     repair()
     n = migrate()
     keep_regular()
@@ -211,6 +288,7 @@ def on_load_post(*_args):
 def register():
     bpy.app.handlers.load_post.insert(0, on_load_post)  # before the frame stage's own
     try:
+        rename_keys()
         repair()
         migrate()
         keep_regular()

@@ -37,13 +37,14 @@ The originals are never changed.
 
 from ..maps.nodegroups import BLEND_GROUP
 
-_ADDON_KEYS = ("ewrinkles_version", "wrinkle_map_version", "wrinkle_layout")  # the add-on's groups carry one
+_PREFIX = "ewrinkles_"  # every custom property of the add-on's groups starts with it
 NORMAL_NODE = "Exported Base Normal"
 
 
 def _is_ours(node):
     tree = getattr(node, "node_tree", None) if node.type == "GROUP" else None
-    return tree is not None and (tree.name.startswith(BLEND_GROUP) or any(k in tree for k in _ADDON_KEYS))
+    return tree is not None and (tree.name.startswith(BLEND_GROUP)
+                                 or any(k.startswith(_PREFIX) for k in tree.keys()))
 
 
 def upstream(socket):

@@ -195,8 +195,8 @@ def setup(face, material=None, packed=None):
     x, y = bsdf.location.x, bsdf.location.y
     blend = nodes.ensure_node(nt, BLEND_NODE, "ShaderNodeGroup", (x - 300, y - 400))
     blend.node_tree = blend_group
-    if old and "wrinkle_previous_normal" not in blend:
-        blend["wrinkle_previous_normal"] = list(old[0])
+    if old and "ewrinkles_previous_normal" not in blend:
+        blend["ewrinkles_previous_normal"] = list(old[0])
     weights = nodes.ensure_node(nt, WEIGHTS_NODE, "ShaderNodeGroup", (x - 600, y - 900))
     weights.node_tree = maps.weights_group
     uv = nodes.ensure_node(nt, UV_NODE, "ShaderNodeUVMap", (x - 1100, y - 400))
@@ -267,7 +267,7 @@ def _strings(value):
 def _previous_normal(blend):
     """(node name, socket identifier) of the link that fed the BSDF's normal before the
     wrinkle maps, as ``setup`` stored it on the blend node; [] if absent or malformed."""
-    prev = _strings(blend.get("wrinkle_previous_normal")) if blend is not None else None
+    prev = _strings(blend.get("ewrinkles_previous_normal")) if blend is not None else None
     return prev if prev is not None and len(prev) == 2 else []
 
 
@@ -333,7 +333,7 @@ def _value_path(node_name):
 def baked_paths(ng):
     """The data paths of the weights group that ``bake_weights`` keyed; empty if there are
     none or what the file holds is not a list of strings."""
-    paths = _strings(ng.get("wrinkle_baked")) if ng is not None else None
+    paths = _strings(ng.get("ewrinkles_baked")) if ng is not None else None
     return set(paths or ())
 
 
@@ -469,7 +469,7 @@ def upgrade(face):
             baked = (baked - {old_path}) | {_value_path(name)}
         ng.nodes.remove(old)
     if baked:
-        ng["wrinkle_baked"] = sorted(baked)
+        ng["ewrinkles_baked"] = sorted(baked)
     nodegroups.upgrade_layout_key(ng)
     return "its tension-driven zone values are packed three to a colour (weights group version 2)"
 
@@ -534,7 +534,7 @@ def bake_weights(face, scene, frame_start, frame_end, progress=None):
         ng.driver_remove(path)
     for (name, c), column in zip(channels, values.T):
         _key(ng.nodes[name].outputs[0], c, frames, column)
-    ng["wrinkle_baked"] = paths
+    ng["ewrinkles_baked"] = paths
     scene.frame_set(current)  # the keyed values, on the frame the bake began on
     return len(channels)
 
@@ -560,5 +560,5 @@ def free_weights(face):
     curves = drivers.action_fcurves(ng)
     for fc in [fc for fc in curves if fc.data_path in baked]:
         curves.remove(fc)
-    del ng["wrinkle_baked"]
+    del ng["ewrinkles_baked"]
     sync(face, rebind=True)

@@ -190,7 +190,7 @@ def _build_blend(ng):
     b.link(color, nmap.inputs["Color"])
     b.link(nmap.outputs["Normal"], gout.inputs["Normal"])
     b.link(color, gout.inputs["Color"])
-    ng["wrinkle_map_version"] = VERSION
+    ng["ewrinkles_map_version"] = VERSION
 
 
 def _check_editable(ng):
@@ -212,7 +212,7 @@ def ensure_blend_group(n_maps=2):
     ng = bpy.data.node_groups.get(BLEND_GROUP)
     if ng is not None:
         _check_editable(ng)
-        if (ng.get("wrinkle_map_version") == VERSION and map_count(ng) >= n_maps
+        if (ng.get("ewrinkles_map_version") == VERSION and map_count(ng) >= n_maps
                 and not _ensure_interface(ng, map_count(ng))):
             return ng
     else:
@@ -257,9 +257,9 @@ def _layout_key(n_maps, map_of_expression):
 def upgrade_layout_key(ng):
     """Tag a group of weights version 1 whose tension ``material.upgrade`` packed as
     version 2 (its layout is otherwise the same)."""
-    key = ng.get("wrinkle_layout")
+    key = ng.get("ewrinkles_layout")
     if isinstance(key, str) and not key.startswith("w"):
-        ng["wrinkle_layout"] = f"w{WEIGHTS_VERSION}:{key}"
+        ng["ewrinkles_layout"] = f"w{WEIGHTS_VERSION}:{key}"
 
 
 def add_tension_nodes(ng, x=-200, y=0):
@@ -323,7 +323,7 @@ def build_weights(ng, names, map_of_expression, n_maps):
             out = b.math("MULTIPLY", shaped, 1.0)
             out.node.name = f"Strength {k} {z}"
             b.link(out, gout.inputs[zone_socket(k, z)])
-    ng["wrinkle_layout"] = _layout_key(n_maps, map_of_expression)
+    ng["ewrinkles_layout"] = _layout_key(n_maps, map_of_expression)
 
 
 def weights_layout_matches(ng, map_of_expression, n_maps):
@@ -332,7 +332,7 @@ def weights_layout_matches(ng, map_of_expression, n_maps):
     The tag is read from the file, so the nodes that :func:`set_weights` writes are
     checked too: a group whose nodes were deleted by hand (or whose tag was crafted) is
     rebuilt rather than trusted."""
-    if ng.get("wrinkle_layout") != _layout_key(n_maps, map_of_expression):
+    if ng.get("ewrinkles_layout") != _layout_key(n_maps, map_of_expression):
         return False
     nodes = ng.nodes
     names = [expr_node(e) for e in range(len(map_of_expression))]
