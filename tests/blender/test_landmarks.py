@@ -37,7 +37,7 @@ def _sphere():
 
 
 def _empties(face):
-    return {ob["wrinkle_landmark"]: ob for ob in bpy.data.objects
+    return {ob["ewrinkles_landmark"]: ob for ob in bpy.data.objects
             if ob.name.startswith(f"{landmarks.LANDMARK_PREFIX}{face.name} ")}
 
 

@@ -12,10 +12,6 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[2] / "wrinkle_addon"
 PREFIX = "ewrinkles_"
-# The landmark empties' keys, still written under their old names (glue/muscles/landmarks.py);
-# the load upgrade (migrate.KEYS) already moves them.  The test fails once one is no longer
-# written: then drop it from here.
-NOT_YET = {"wrinkle_landmark", "description"}
 # Not a stored property: the glTF extras key of the material copy an export writes (engines
 # read it under that name), never kept in the artist's file.
 EXTRAS = "ewrinkles"
@@ -80,18 +76,15 @@ def _writes(source):
 
 
 def test_every_id_property_the_add_on_writes_starts_with_the_prefix():
-    bad, pending = [], set()
+    bad = []
     for path in sorted(PACKAGE.rglob("*.py")):
         if path == PACKAGE / "props" / "migrate.py":  # it writes the old names' values under the new
             continue
         for line, key in set(_writes(path.read_text())):
-            if key in NOT_YET:
-                pending.add(key)
-            elif not key.startswith(PREFIX) and key != EXTRAS:
+            if not key.startswith(PREFIX) and key != EXTRAS:
                 bad.append(f"{path.relative_to(PACKAGE.parent)}:{line}: {key!r}")
     assert not bad, "custom properties without the prefix (add the old name to migrate.KEYS):\n" + "\n".join(
         sorted(bad))
-    assert pending == NOT_YET, f"no longer written, drop them from NOT_YET: {sorted(NOT_YET - pending)}"
 
 
 def test_the_check_sees_a_write():

@@ -89,8 +89,8 @@ def set_landmarks(context, face, located):
         ob.parent = face
         ob.matrix_parent_inverse.identity()
         ob.location = Vector(located[key])
-        ob["wrinkle_landmark"] = key
-        ob["description"] = desc
+        ob["ewrinkles_landmark"] = key
+        ob["ewrinkles_description"] = desc
         ob.show_name = True
 
 
