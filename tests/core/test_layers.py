@@ -75,33 +75,31 @@ def test_every_layer_imports_only_what_it_may():
     assert not bad, "\n".join(bad)
 
 
-def test_core_methods_do_not_import_each_other():
-    bad = []
+def _crossings(layer, packages):
+    """``(file, line, module, (its package, the imported package))`` of every import from one
+    of ``layer``'s sub-packages ``packages`` into another."""
     for path in _modules():
         rel = path.relative_to(PACKAGE)
-        if rel.parts[0] != "core" or len(rel.parts) < 3:
+        if rel.parts[0] != layer or len(rel.parts) < 3:
             continue
         for module, line in _imports(path):
             parts = module.split(".")
-            others = METHODS - {rel.parts[1]}
-            if parts[:2] == ["wrinkle_addon", "core"] and len(parts) > 2 and parts[2] in others:
-                bad.append(f"{rel}:{line} imports {module}")
+            if parts[:2] == ["wrinkle_addon", layer] and len(parts) > 2 and parts[2] in packages \
+                    and parts[2] != rel.parts[1]:
+                yield rel, line, module, (rel.parts[1], parts[2])
+
+
+def test_core_methods_do_not_import_each_other():
+    bad = [f"{rel}:{line} imports {module}" for rel, line, module, _edge in _crossings("core", METHODS)]
     assert not bad, "\n".join(bad)
 
 
 def test_glue_packages_import_each_other_only_where_declared():
-    found = set()
-    for path in _modules():
-        rel = path.relative_to(PACKAGE)
-        if rel.parts[0] != "glue" or len(rel.parts) < 3:
-            continue
-        for module, line in _imports(path):
-            parts = module.split(".")
-            if parts[:2] == ["wrinkle_addon", "glue"] and len(parts) > 2 and parts[2] in GLUE_PACKAGES \
-                    and parts[2] != rel.parts[1]:
-                found.add((rel.parts[1], parts[2]))
-                assert (rel.parts[1], parts[2]) in GLUE_CROSSINGS, f"{rel}:{line} imports {module}"
-    assert found == set(GLUE_CROSSINGS), "a declared crossing that no import makes any more"
+    found = list(_crossings("glue", GLUE_PACKAGES))
+    bad = [f"{rel}:{line} imports {module}" for rel, line, module, edge in found
+           if edge not in GLUE_CROSSINGS]
+    assert not bad, "\n".join(bad)
+    assert {edge for *_where, edge in found} == set(GLUE_CROSSINGS), "a declared crossing no import makes"
 
 
 def test_every_folder_states_its_rule():
