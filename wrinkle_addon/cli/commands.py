@@ -18,8 +18,7 @@ from pathlib import Path
 import bpy
 
 from ..glue import farm_bake, pipeline, registry, stage, status
-from . import args as cli_args
-from . import files
+from . import args, files
 from .args import FAILED, NOT_READY, OK, STOPPED, USAGE, UsageError
 
 
@@ -49,7 +48,7 @@ def faces(scene):
 
 def _frames(ns, scene):
     text = ns.frames or f"{scene.frame_start}-{scene.frame_end}"
-    return cli_args.frames(text), text
+    return args.frames(text), text
 
 
 def _engine(name):
@@ -133,8 +132,8 @@ def _render(ns, emit):
         raise UsageError(f"{path.name} has no face with wrinkles: render it with `blender -b {path.name} -a`")
     frame_list, text = _frames(ns, scene)
     if ns.chunk:
-        k, n = cli_args.chunk(ns.chunk)
-        frame_list = cli_args.chunk_of(frame_list, k, n)
+        k, n = args.chunk(ns.chunk)
+        frame_list = args.chunk_of(frame_list, k, n)
         if not frame_list:
             raise UsageError(f"chunk {k}/{n} of the frames {text} is empty: use fewer parts")
     if scene.render.is_movie_format:
@@ -235,7 +234,7 @@ def bake(ns):
     if not found:
         raise UsageError(f"{path.name} has no face with wrinkles or wrinkle maps to bake")
     frame_list, text = _frames(ns, scene)
-    start, end = cli_args.contiguous(frame_list, text)
+    start, end = args.contiguous(frame_list, text)
     option, given = ("--save-as", ns.save_as) if ns.save_as else ("the shot", ns.blend)
     if ns.save_as:
         target = files.argument_path(ns.save_as, option, path.parent)
@@ -392,7 +391,7 @@ def sheet(ns):
     partial = files.sheet_partial(out)
     files.fits(option, text, out, f"{partial}.partial")  # images.write's own temporary name
     if ns.frames:
-        paths = [folder / f"frame_{f:04d}.png" for f in cli_args.frames(ns.frames)]
+        paths = [folder / f"frame_{f:04d}.png" for f in args.frames(ns.frames)]
         missing = [p.name for p in paths if not files.complete(p)]
         if missing:
             say(f"{len(missing)} frames are missing or incomplete: {', '.join(missing[:5])}")
@@ -428,7 +427,7 @@ def _export(ns, emit):
         names = ", ".join(f'"{ob.name}"' for ob in found)
         raise UsageError(f"{path.name} has {len(found)} faces ({names}): pick one with --face")
     face = found[0]
-    start, end = cli_args.contiguous(*_frames(ns, scene))
+    start, end = args.contiguous(*_frames(ns, scene))
     out = files.argument_path(ns.out, "--out", path.parent)
     if ns.format == "package":  # a folder of wrinkles.json and the images, each written as NAME.partial first
         files.not_a_file("--out", ns.out, out, "the package (wrinkles.json and its images)")

@@ -51,8 +51,7 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from ..core import combine
-from ..core import mesh as core_mesh
+from ..core import combine, mesh
 from . import faces, meshio, registry, stage, status
 from .errors import WrinkleError
 
@@ -130,7 +129,7 @@ def _topology(state, me, changes=None):
     rest = meshio.read_vectors(me, "position")
     corner, starts, sizes = meshio.read_polygons(me)
     state.key = key
-    tris = core_mesh.fan_triangles(corner, starts, sizes)
+    tris = mesh.fan_triangles(corner, starts, sizes)
     state.mesh = registry.MeshArrays(rest, meshio.read_edges(me), tris)
     n = len(rest)
     state.out = np.zeros((n, 3), dtype=np.float32)

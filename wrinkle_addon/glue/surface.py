@@ -8,7 +8,7 @@ import bpy
 import numpy as np
 from mathutils.bvhtree import BVHTree
 
-from ..core import mesh as core_mesh
+from ..core import mesh
 from ..core.bando import mapped
 from . import faces, meshio, stage
 from .errors import WrinkleError
@@ -54,7 +54,7 @@ class Surface:
         self.edges = meshio.read_edges(me)
         corner_vert, starts, sizes = meshio.read_polygons(me)
         # (T, 3) corner indices: the UVs are per corner
-        self.corner_tris = core_mesh.fan_triangles(np.arange(len(corner_vert)), starts, sizes)
+        self.corner_tris = mesh.fan_triangles(np.arange(len(corner_vert)), starts, sizes)
         self.tris = corner_vert[self.corner_tris]  # (T, 3) vertices
         if len(self.tris) == 0:
             raise SurfaceError(f'"{face.name}" has no faces with 3 or more corners')
@@ -131,7 +131,7 @@ def triangles(me):
     :class:`Snapper` is built on."""
     corner_vert, starts, sizes = meshio.read_polygons(me)
     return (meshio.read_vectors(me, "position").astype(np.float64),
-            core_mesh.fan_triangles(corner_vert, starts, sizes))
+            mesh.fan_triangles(corner_vert, starts, sizes))
 
 
 class Snapper:

@@ -13,8 +13,7 @@ from bpy.props import FloatProperty, FloatVectorProperty
 
 from ..core.bando import curves as core_curves
 from ..glue import curve_objects, faces, pipeline, surface
-from ..glue.bando import curves, shading
-from ..glue.bando import fine as fine_glue
+from ..glue.bando import curves, fine, shading
 from ..glue.errors import WrinkleError
 from ..glue.progress import Progress
 from .common import face_poll, guarded, nothing_left_on_failure, select_only
@@ -281,8 +280,8 @@ class WRINKLE_OT_carve_fine(bpy.types.Operator):
     @guarded
     def execute(self, context):
         face = _face(context)
-        with Progress(context, self.bl_label, total=fine_glue.STEPS) as progress:
-            results = fine_glue.carve(context, face, progress)
+        with Progress(context, self.bl_label, total=fine.STEPS) as progress:
+            results = fine.carve(context, face, progress)
         pipeline.refresh_all(context)
         fs = face.ewrinkles_face.fine_wrinkles
         self.report({"INFO"}, f"Carved {fs.furrows} furrows in two {results[0].height.shape[0]} px images "
@@ -309,7 +308,7 @@ class WRINKLE_OT_remove_fine(bpy.types.Operator):
 
     @guarded
     def execute(self, context):
-        fine_glue.remove(_face(context))
+        fine.remove(_face(context))
         pipeline.refresh_all(context)
         return {"FINISHED"}
 
@@ -344,7 +343,7 @@ class WRINKLE_OT_fine_direction(bpy.types.Operator):
         edit = face.mode == "EDIT"
         if edit:
             bpy.ops.object.mode_set(mode="OBJECT")
-        fine_glue.set_guides(face, np.flatnonzero(sel), np.array(self.direction, np.float64))
+        fine.set_guides(face, np.flatnonzero(sel), np.array(self.direction, np.float64))
         if edit:
             bpy.ops.object.mode_set(mode="EDIT")
         face.ewrinkles_face.fine_wrinkles.field_source = "GUIDES"

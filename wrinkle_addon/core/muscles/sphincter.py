@@ -42,8 +42,7 @@ other muscles (``l`` is a distance round the ring, so the furrows never cross).
 import numpy as np
 
 from ..mesh import smoothstep
-from . import irregularity as irregular
-from . import zhang
+from . import irregularity, zhang
 from .muscle import MuscleField, ring_frame
 from .waters import depth_falloff
 
@@ -117,7 +116,7 @@ def field(rest, m):
     env = env * band(r, start, reach, m.fade_ends) * slab[region]
     phase = l + sector * rb
     if m.irregularity > 0.0:  # the furrows' spacing, course and depth vary (docs/model.md)
-        phase, depth_factor = irregular.apply(rest[region], phase, u, m.seed, m.irregularity)
+        phase, depth_factor = irregularity.apply(rest[region], phase, u, m.seed, m.irregularity)
         env = env * depth_factor
     if m.n_wrinkles < 0.5:
         amp = np.zeros(len(region))

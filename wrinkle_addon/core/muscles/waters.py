@@ -40,8 +40,7 @@ Choices, with reasons:
 import numpy as np
 
 from ..mesh import smoothstep
-from . import irregularity as irregular
-from . import zhang
+from . import irregularity, zhang
 from .muscle import MuscleField, sheet_frame
 
 _EPS = 1e-9
@@ -120,7 +119,7 @@ def _wrinkle_amplitude(l, across, across_c, across_max, m, length, lo=0.0, point
         return np.zeros_like(l), float(u), np.zeros_like(l)
     phase, depth = np.asarray(l), None
     if points is not None and m.irregularity > 0.0:
-        phase, depth = irregular.apply(points, phase, u, m.seed, m.irregularity)
+        phase, depth = irregularity.apply(points, phase, u, m.seed, m.irregularity)
     w = zhang.cycle_position(phase - lo, m.lambda_w, span, u)
     env = zhang.attenuation(across, across_c, across_max)
     if m.fade_ends:
