@@ -1,0 +1,110 @@
+"""Every import of the add-on anywhere in the repository names a module and names that exist:
+the benchmarks, the sample scenes and the tools run outside CI's test session, so a renamed
+module or function would otherwise break them unseen.  Pure Python (``ast``), no Blender."""
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+FOLDERS = ("wrinkle_addon", "tests", "benchmarks", "sample_scenes", "tools", "farm")
+
+
+def _files():
+    for folder in FOLDERS:
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            if not {"node_modules", "__pycache__"} & set(path.parts):
+                yield path
+
+
+def _module_path(dotted):
+    """The file of the module ``dotted`` (``wrinkle_addon.glue.faces``), or None."""
+    base = ROOT.joinpath(*dotted.split("."))
+    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return base if base.is_dir() else None  # a namespace package
+
+
+def _top_level_names(path):
+    """The names a module binds at its top level (definitions, assignments, imports)."""
+    if path.is_dir():
+        return set()
+    names = set()
+    for node in ast.parse(path.read_text()).body:
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign, ast.AugAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            for target in targets:
+                for n in ast.walk(target):
+                    if isinstance(n, ast.Name):
+                        names.add(n.id)
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            names.update((a.asname or a.name).split(".")[0] for a in node.names)
+        elif isinstance(node, (ast.If, ast.Try)):  # a guarded definition counts too
+            for sub in ast.walk(node):
+                if isinstance(sub, (ast.FunctionDef, ast.ClassDef)):
+                    names.add(sub.name)
+                elif isinstance(sub, ast.Assign):
+                    names.update(t.id for t in sub.targets if isinstance(t, ast.Name))
+                elif isinstance(sub, (ast.Import, ast.ImportFrom)):
+                    names.update((a.asname or a.name).split(".")[0] for a in sub.names)
+    return names
+
+
+def _imports(path):
+    """(line, module, names) of every import of the add-on in ``path``, relative ones
+    resolved (at the top of the file or inside a function)."""
+    rel = path.relative_to(ROOT).with_suffix("").parts
+    package = list(rel if path.name == "__init__.py" else rel[:-1])
+    if path.name == "__init__.py":
+        package = package[:-1]
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.split(".")[0] == "wrinkle_addon":
+                    yield node.lineno, a.name, []
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[: len(package) - node.level + 1]
+                module = ".".join(base + ([node.module] if node.module else []))
+            else:
+                module = node.module or ""
+            if module.split(".")[0] == "wrinkle_addon":
+                yield node.lineno, module, [a.name for a in node.names]
+
+
+def test_every_import_of_the_add_on_resolves():
+    bad = []
+    for path in _files():
+        for line, module, names in _imports(path):
+            where = f"{path.relative_to(ROOT)}:{line}"
+            target = _module_path(module)
+            if target is None:
+                bad.append(f"{where}: no module {module}")
+                continue
+            defined = _top_level_names(target)
+            for name in names:
+                if name != "*" and name not in defined and _module_path(f"{module}.{name}") is None:
+                    bad.append(f"{where}: {module} has no {name}")
+    assert not bad, "\n".join(bad)
+
+
+def test_a_broken_import_is_found(tmp_path, monkeypatch):
+    """The check itself: a missing module and a missing name are both reported."""
+    pkg = tmp_path / "wrinkle_addon"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "real.py").write_text("def here():\n    pass\n")
+    (pkg / "user.py").write_text("from .real import here, gone\n"
+                                 "from . import missing\n"
+                                 "import wrinkle_addon.nowhere\n")
+    monkeypatch.setattr(f"{__name__}.ROOT", tmp_path)
+    monkeypatch.setattr(f"{__name__}.FOLDERS", ("wrinkle_addon",))
+    try:
+        test_every_import_of_the_add_on_resolves()
+    except AssertionError as exc:
+        assert "wrinkle_addon.real has no gone" in str(exc) and "wrinkle_addon has no missing" in str(exc)
+        assert "no module wrinkle_addon.nowhere" in str(exc), str(exc)
+    else:
+        raise AssertionError("the broken imports were not found")
