@@ -5,6 +5,8 @@ module or function would otherwise break them unseen.  Pure Python (``ast``), no
 import ast
 from pathlib import Path
 
+from tests.core import pyimports
+
 ROOT = Path(__file__).resolve().parents[2]
 FOLDERS = ("wrinkle_addon", "tests", "benchmarks", "sample_scenes", "tools", "farm")
 
@@ -52,39 +54,19 @@ def _top_level_names(path):
     return names
 
 
-def _imports(path):
-    """(line, module, names) of every import of the add-on in ``path``, relative ones
-    resolved (at the top of the file or inside a function)."""
-    rel = path.relative_to(ROOT).with_suffix("").parts
-    package = list(rel if path.name == "__init__.py" else rel[:-1])
-    if path.name == "__init__.py":
-        package = package[:-1]
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
-        if isinstance(node, ast.Import):
-            for a in node.names:
-                if a.name.split(".")[0] == "wrinkle_addon":
-                    yield node.lineno, a.name, []
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package[: len(package) - node.level + 1]
-                module = ".".join(base + ([node.module] if node.module else []))
-            else:
-                module = node.module or ""
-            if module.split(".")[0] == "wrinkle_addon":
-                yield node.lineno, module, [a.name for a in node.names]
-
-
 def test_every_import_of_the_add_on_resolves():
     bad = []
     for path in _files():
-        for line, module, names in _imports(path):
+        for line, module, names in pyimports.imports(path, ROOT):
+            if module.split(".")[0] != "wrinkle_addon":
+                continue
             where = f"{path.relative_to(ROOT)}:{line}"
             target = _module_path(module)
             if target is None:
                 bad.append(f"{where}: no module {module}")
                 continue
             defined = _top_level_names(target)
-            for name in names:
+            for name in names or ():
                 if name != "*" and name not in defined and _module_path(f"{module}.{name}") is None:
                     bad.append(f"{where}: {module} has no {name}")
     assert not bad, "\n".join(bad)

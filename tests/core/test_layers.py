@@ -1,10 +1,12 @@
 """The layers of docs/architecture.md, checked on the source: which package may import
 which.  Pure Python (``ast``), so it runs in the fast tier without Blender."""
 
-import ast
 from pathlib import Path
 
+from tests.core import pyimports
+
 PACKAGE = Path(__file__).resolve().parents[2] / "wrinkle_addon"
+ROOT = PACKAGE.parent
 BLENDER = {"bpy", "bmesh", "mathutils", "bpy_extras", "gpu", "gpu_extras", "addon_utils"}
 # layer -> the add-on layers it may import (besides itself)
 ALLOWED = {
@@ -28,24 +30,17 @@ GLUE_CROSSINGS = {
 }
 
 
+def _is_module(dotted):
+    base = ROOT.joinpath(*dotted.split("."))
+    return base.with_suffix(".py").is_file() or (base / "__init__.py").is_file()
+
+
 def _imports(path):
-    """(absolute module, line) of every import in ``path``, relative ones resolved."""
-    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
-    if parts[-1] == "__init__":
-        parts = parts[:-1]
-    here = parts if path.name == "__init__.py" else parts[:-1]
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
-        if isinstance(node, ast.Import):
-            for alias in node.names:
-                yield alias.name, node.lineno
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = here[: len(here) - node.level + 1]
-                mod = ".".join(base + ([node.module] if node.module else []))
-            else:
-                mod = node.module
-            for alias in node.names:  # ``from . import glue`` names a module too
-                yield (f"{mod}.{alias.name}" if not node.module else mod), node.lineno
+    """(absolute module, line) of every import in ``path``, relative ones resolved; ``from
+    package import name`` is an import of the submodule ``name`` when there is one."""
+    for line, module, names in pyimports.imports(path, ROOT):
+        for target in pyimports.targets(module, names, _is_module):
+            yield target, line
 
 
 def _layer(module):
@@ -109,12 +104,6 @@ def test_every_folder_states_its_rule():
             assert readme.is_file() and readme.read_text().strip(), f"{folder.relative_to(PACKAGE.parent)}"
 
 
-ROOT = PACKAGE.parent
-
-
-def _module_name(path):
-    parts = list(path.relative_to(ROOT).with_suffix("").parts)
-    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
 def _import_graph(files, bare=""):
@@ -122,21 +111,12 @@ def _import_graph(files, bare=""):
     ``from package import name`` counted as an import of the submodule ``name`` when there is
     one.  ``bare``: the package whose modules are also imported by their bare names (the
     benchmarks put their own folder on ``sys.path``)."""
-    names = {_module_name(p): p for p in files}
+    names = {pyimports.module_name(p, ROOT): p for p in files}
     graph = {}
     for name, path in names.items():
-        here = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
         out = set()
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
-            if isinstance(node, ast.Import):
-                targets = [a.name for a in node.names]
-            elif isinstance(node, ast.ImportFrom):
-                base = ".".join(here[: len(here) - node.level + 1] + ([node.module] if node.module else [])) \
-                    if node.level else node.module
-                targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in names else base for a in node.names]
-            else:
-                continue
-            for t in targets:
+        for _line, module, imported in pyimports.imports(path, ROOT):
+            for t in pyimports.targets(module, imported, names.__contains__):
                 if bare and t not in names and f"{bare}.{t}" in names:
                     t = f"{bare}.{t}"
                 if t in names and t != name:
