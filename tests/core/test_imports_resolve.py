@@ -27,31 +27,27 @@ def _module_path(dotted):
     return base if base.is_dir() else None  # a namespace package
 
 
-def _top_level_names(path):
-    """The names a module binds at its top level (definitions, assignments, imports)."""
-    if path.is_dir():
-        return set()
+def _bound(statements):
+    """The names ``statements`` bind (definitions, assignments, imports), inside ``if``,
+    ``try`` and ``with`` blocks too (a guarded definition counts)."""
     names = set()
-    for node in ast.parse(path.read_text()).body:
+    for node in statements:
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
             names.add(node.name)
         elif isinstance(node, (ast.Assign, ast.AnnAssign, ast.AugAssign)):
-            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
-            for target in targets:
-                for n in ast.walk(target):
-                    if isinstance(n, ast.Name):
-                        names.add(n.id)
+            for target in node.targets if isinstance(node, ast.Assign) else [node.target]:
+                names.update(n.id for n in ast.walk(target) if isinstance(n, ast.Name))
         elif isinstance(node, (ast.Import, ast.ImportFrom)):
             names.update((a.asname or a.name).split(".")[0] for a in node.names)
-        elif isinstance(node, (ast.If, ast.Try)):  # a guarded definition counts too
-            for sub in ast.walk(node):
-                if isinstance(sub, (ast.FunctionDef, ast.ClassDef)):
-                    names.add(sub.name)
-                elif isinstance(sub, ast.Assign):
-                    names.update(t.id for t in sub.targets if isinstance(t, ast.Name))
-                elif isinstance(sub, (ast.Import, ast.ImportFrom)):
-                    names.update((a.asname or a.name).split(".")[0] for a in sub.names)
+        elif isinstance(node, (ast.If, ast.Try, ast.With)):
+            inner = node.body + getattr(node, "orelse", []) + getattr(node, "finalbody", [])
+            names |= _bound(inner + [s for h in getattr(node, "handlers", []) for s in h.body])
     return names
+
+
+def _top_level_names(path):
+    """The names a module binds at its top level."""
+    return set() if path.is_dir() else _bound(ast.parse(path.read_text()).body)
 
 
 def test_every_import_of_the_add_on_resolves():

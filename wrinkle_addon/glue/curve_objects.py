@@ -39,9 +39,7 @@ def face_space_samples(curve_ob, face):
     out = []
     for kind, p, hl, hr, cyclic in spline_data(curve_ob):
         if kind == "BEZIER":
-            if cyclic and len(p) > 1:
-                p, hl, hr = np.vstack([p, p[:1]]), np.vstack([hl, hl[:1]]), np.vstack([hr, hr[:1]])
-            pts = bezier(p, hl, hr, SAMPLES_PER_SEGMENT) if len(p) > 1 else p
+            pts = bezier(p, hl, hr, SAMPLES_PER_SEGMENT, cyclic=cyclic) if len(p) > 1 else p
         else:
             pts = np.vstack([p, p[:1]]) if cyclic and len(p) > 1 else p
         out.append(pts @ m[:3, :3].T + m[:3, 3])

@@ -103,10 +103,9 @@ def _merge_coincident(bm, n_old, split_pairs, rest):
     return bool(weld)
 
 
-def bisect_pass(me, split_pairs, split_index):
+def _bisect_pass(me, split_pairs, split_index):
     """One bisection pass over the edges ``split_index`` (``split_pairs`` their vertex pairs,
-    from ``core.refinement.split_edges``); the new points placed smoothly.  Public
-    for refinements with other criteria (a scene refining around wrinkle curves)."""
+    from ``core.refinement.split_edges``); the new points placed smoothly."""
     n_old = len(me.vertices)
     corner, starts, sizes = meshio.read_polygons(me)
     shapes = _read_shapes(me)
@@ -158,6 +157,6 @@ def refine(face, need, max_vertices=1_000_000, progress=None):
         split, grid_quads = refinement.split_edges(rest, edges, corner, starts, sizes, split_needed)
         if len(rest) + len(split) + grid_quads > max_vertices:
             return Result(i, f"Stopped: refining further would exceed {max_vertices} vertices")
-        bisect_pass(me, edges[split], split)
+        _bisect_pass(me, edges[split], split)
     return Result(MAX_PASSES, f"Stopped after {MAX_PASSES} passes: {len(split_needed)} edges are still "
                               "longer than the wrinkles need")

@@ -2,8 +2,6 @@
 """The muscles' rule for Refine Wrinkling Regions (``glue/refine.py``): the edges longer than
 their half cycles allow (``core.muscles.resolution``), off the eyelids and lips."""
 
-import numpy as np
-
 from ...core.muscles import resolution
 from .. import landmarks
 from . import muscle_objects
@@ -19,8 +17,6 @@ def refine_need(face, factor, muscles=None):
     core = [muscle_objects.to_core(m, face) for m in muscles]
 
     def need(rest, edges):
-        if len(edges) == 0:
-            return np.zeros(0, np.int64)
         return resolution.refine_edges(rest, edges, core, factor, landmarks.keep_out(face, rest))
 
     return need
